@@ -1,0 +1,34 @@
+#pragma once
+// What only the simulator knows. The executor reads it to fill the report's *_error fields; no
+// behaviour may use it.
+#include <Eigen/Geometry>
+#include <array>
+#include <optional>
+#include <string>
+
+#include "projtour/drivers.hpp"
+
+namespace projtour {
+
+struct ProjectionTruth {
+  // Per Model Point: where the content corner really lands on the target against where the
+  // Model Point truly is (mm), and the same in projector pixels.
+  std::array<double, 4> error_mm{};
+  std::array<double, 4> error_px{};
+  double mean_mm() const;
+  double mean_px() const;
+};
+
+class GroundTruth {
+ public:
+  virtual ~GroundTruth();
+  virtual Eigen::Isometry3d true_T_map_base() const = 0;
+  virtual Eigen::Isometry3d true_T_map_camera() const = 0;
+  virtual Eigen::Isometry3d true_T_map_model(const std::string& target_id) const = 0;
+  // The true projector ray through each pixel the robot chose for a content corner, met with
+  // the true target surface. nullopt if the target is unknown.
+  virtual std::optional<ProjectionTruth> evaluate_projection(
+      const std::string& target_id, const std::array<Eigen::Vector2d, 4>& projector_px) const = 0;
+};
+
+}  // namespace projtour

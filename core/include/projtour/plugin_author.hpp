@@ -1,0 +1,121 @@
+#pragma once
+// What a plugin's source includes to describe its kinds and export its descriptor.
+//
+//   class Align : public projtour::Behaviour {
+//    public:
+//     Align(const projtour::Params& params, const projtour::RunContext& run);
+//     ...
+//   };
+//   const projtour_param_desc kAlignParams[] = {
+//       {"method", "string", "projective_icp", "registration method"}, ...};
+//   const char* const kAlignOutcomes[] = {"succeeded", "poor_fit", "no_target"};
+//   const projtour_kind_desc kKinds[] = {
+//       projtour::behaviour_kind<Align>("align", "ICP of the model against the frame",
+//                                       kAlignParams, kAlignOutcomes)};
+//   PROJTOUR_PLUGIN("align", "1.0.0", kKinds)
+#include <cstring>
+#include <exception>
+
+#include "projtour/behaviour.hpp"
+#include "projtour/context.hpp"
+#include "projtour/drivers.hpp"
+#include "projtour/params.hpp"
+#include "projtour/plugin_abi.h"
+
+namespace projtour::plugin_detail {
+
+inline void copy_message(const char* message, char* error, size_t error_size) {
+  if (error == nullptr || error_size == 0) return;
+  std::strncpy(error, message, error_size - 1);
+  error[error_size - 1] = '\0';
+}
+
+// Exceptions never cross the C boundary: they become the error message.
+template <typename Base, typename T>
+void* create(const void* params, const void* run, char* error, size_t error_size) noexcept {
+  try {
+    Base* object =
+        new T(*static_cast<const Params*>(params), *static_cast<const RunContext*>(run));
+    return object;
+  } catch (const std::exception& e) {
+    copy_message(e.what(), error, error_size);
+  } catch (...) {
+    copy_message("unknown exception", error, error_size);
+  }
+  return nullptr;
+}
+
+template <typename Base>
+void destroy(void* object) noexcept {
+  delete static_cast<Base*>(object);
+}
+
+}  // namespace projtour::plugin_detail
+
+namespace projtour {
+
+template <typename T, size_t NP, size_t NO>
+constexpr projtour_kind_desc behaviour_kind(const char* name, const char* description,
+                                            const projtour_param_desc (&params)[NP],
+                                            const char* const (&outcomes)[NO],
+                                            projtour_validate_fn validate = nullptr) {
+  return {name,
+          PROJTOUR_FAMILY_BEHAVIOUR,
+          nullptr,
+          description,
+          params,
+          static_cast<uint32_t>(NP),
+          outcomes,
+          static_cast<uint32_t>(NO),
+          &plugin_detail::create<Behaviour, T>,
+          &plugin_detail::destroy<Behaviour>,
+          validate};
+}
+
+template <typename T, size_t NO>
+constexpr projtour_kind_desc behaviour_kind(const char* name, const char* description,
+                                            const char* const (&outcomes)[NO]) {
+  return {name,
+          PROJTOUR_FAMILY_BEHAVIOUR,
+          nullptr,
+          description,
+          nullptr,
+          0,
+          outcomes,
+          static_cast<uint32_t>(NO),
+          &plugin_detail::create<Behaviour, T>,
+          &plugin_detail::destroy<Behaviour>,
+          nullptr};
+}
+
+// `interface`: "base" | "laser" | "pan_tilt" | "depth_camera" | "projector".
+template <typename T, size_t NP>
+constexpr projtour_kind_desc driver_kind(const char* name, const char* interface,
+                                         const char* description,
+                                         const projtour_param_desc (&params)[NP],
+                                         projtour_validate_fn validate = nullptr) {
+  return {name,    PROJTOUR_FAMILY_DRIVER, interface, description,
+          params,  static_cast<uint32_t>(NP), nullptr, 0,
+          &plugin_detail::create<Driver, T>, &plugin_detail::destroy<Driver>, validate};
+}
+
+template <typename T, size_t NP>
+constexpr projtour_kind_desc service_kind(const char* name, const char* role,
+                                          const char* description,
+                                          const projtour_param_desc (&params)[NP],
+                                          projtour_validate_fn validate = nullptr) {
+  return {name,    PROJTOUR_FAMILY_SERVICE, role, description,
+          params,  static_cast<uint32_t>(NP), nullptr, 0,
+          &plugin_detail::create<Service, T>, &plugin_detail::destroy<Service>, validate};
+}
+
+}  // namespace projtour
+
+#define PROJTOUR_PLUGIN(plugin_name, plugin_version, kinds_array)                            \
+  extern "C" __attribute__((visibility("default"))) const projtour_plugin_desc*             \
+  projtour_plugin_descriptor(void) {                                                          \
+    static const projtour_plugin_desc descriptor = {                                          \
+        PROJTOUR_ABI_VERSION, plugin_name, plugin_version, kinds_array,                       \
+        static_cast<uint32_t>(sizeof(kinds_array) / sizeof(kinds_array[0]))};                \
+    return &descriptor;                                                                       \
+  }

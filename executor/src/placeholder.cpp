@@ -1,0 +1,2 @@
+// The executor library grows here.
+namespace projtour {}
