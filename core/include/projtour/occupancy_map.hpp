@@ -1,0 +1,31 @@
+#pragma once
+// Occupancy grids (MRPT's COccupancyGridMap2D: cell value 1.0 free, 0.0 occupied).
+#include <filesystem>
+#include <memory>
+
+#include "projtour/diagnostics.hpp"
+#include "projtour/geometry.hpp"
+#include "projtour/mission.hpp"
+
+namespace mrpt::maps {
+class COccupancyGridMap2D;
+}
+
+namespace projtour {
+
+// ROS map_server YAML (+ PGM/PNG) or MRPT .gridmap / .gridmap.gz. Throws std::runtime_error
+// naming the file when it cannot be read.
+std::shared_ptr<mrpt::maps::COccupancyGridMap2D> load_occupancy_grid(
+    const std::filesystem::path& file);
+
+// The stand-off pose for a target: standoff_m in front of it along its model +x axis projected
+// on the floor, facing the target.
+Pose2D standoff_pose(const TargetSpec& target);
+
+// Checks against the map that every target lies on it, and that the start pose and every
+// stand-off pose are in free space reachable from the start (grid inflated by the robot's
+// radius). Each failure names the field's file, line and column.
+void validate_against_map(const MissionSpec& mission,
+                          const mrpt::maps::COccupancyGridMap2D& map, Diagnostics& diag);
+
+}  // namespace projtour
