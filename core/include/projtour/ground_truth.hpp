@@ -3,6 +3,7 @@
 // behaviour may use it.
 #include <Eigen/Geometry>
 #include <array>
+#include <filesystem>
 #include <optional>
 #include <string>
 
@@ -29,6 +30,12 @@ class GroundTruth {
   // the true target surface. nullopt if the target is unknown.
   virtual std::optional<ProjectionTruth> evaluate_projection(
       const std::string& target_id, const std::array<Eigen::Vector2d, 4>& projector_px) const = 0;
+  // Writes before.png and after.png into `dir`: a virtual camera in front of the target showing
+  // it shaded, the projected quadrilateral where it really lands and the true Model Points.
+  virtual void write_projection_views(const std::string& target_id,
+                                      const std::array<Eigen::Vector2d, 4>& pixels_before_align,
+                                      const std::array<Eigen::Vector2d, 4>& pixels_after_align,
+                                      const std::filesystem::path& dir) const = 0;
 };
 
 }  // namespace projtour
