@@ -1,5 +1,12 @@
 #pragma once
 // The kinematic chain map -> base -> pan -> tilt -> camera / projector, from the robot file.
+//
+// T_base_pan(q)  = T_base_pan0 * Rz(pan)                       (pan about the pan joint's z)
+// T_base_tilt(q) = T_base_pan(q) * T_pan_tilt0 * Ry(tilt)      (tilt about the tilt joint's y)
+// Tilt sign: a right-handed rotation about +y with x forward, so POSITIVE TILT LOOKS DOWN (the
+// robot file's tilt limits -30...+60 deg mean 30 deg up ... 60 deg down). Positive pan turns left.
+// Mounts give the device body frame (x along the optical axis, y left, z up) on its link; optical
+// frames are T_link_body * T_body_optical().
 #include <Eigen/Geometry>
 #include <optional>
 #include <string>
@@ -26,6 +33,11 @@ class HeadKinematics {
   // Closed-form inverse kinematics: joint angles that put `p_base` on the projector's optical
   // axis (in front of it), accounting for the offsets between joint axes and the optical
   // centre. nullopt with `why` filled when no solution lies within the joint limits.
+  // Exact for a tilt axis perpendicular to the pan axis and a projector (on the tilt link) whose
+  // optical axis is perpendicular to the tilt axis (any offsets, any pitch/roll of the mount);
+  // other geometries are refused with the reason. Among several solutions (pan +-2pi, the
+  // mirrored pan) the one closest to pan = tilt = 0 is returned. A projector on the pan link is
+  // aimed by pan alone and succeeds only when the point lies on the cone its axis sweeps.
   std::optional<JointAngles> aim_projector_at(const Eigen::Vector3d& p_base,
                                               std::string* why = nullptr) const;
 

@@ -18,6 +18,11 @@ namespace projtour {
 std::shared_ptr<mrpt::maps::COccupancyGridMap2D> load_occupancy_grid(
     const std::filesystem::path& file);
 
+// Writes the grid as ROS map_server YAML plus a trinary PNG beside it (same stem): occupied 0,
+// free 254, unknown 205, as map_saver does. The grid's lower-left corner becomes the origin.
+void save_occupancy_grid_yaml(const mrpt::maps::COccupancyGridMap2D& map,
+                              const std::filesystem::path& yaml_file);
+
 // The stand-off pose for a target: standoff_m in front of it along its model +x axis projected
 // on the floor, facing the target.
 Pose2D standoff_pose(const TargetSpec& target);

@@ -1,0 +1,127 @@
+#pragma once
+// From a depth frame to the target's pose in the camera frame: organized clouds, frame
+// averaging, cropping around a guess, and point-to-plane ICP with projective data association
+// (as KinectFusion), Eigen only.
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <limits>
+#include <vector>
+
+#include "projtour/depth_frame.hpp"
+#include "projtour/model.hpp"
+
+namespace projtour {
+
+// Points in the camera frame laid out like (a window of) the depth image they came from.
+// "Camera frame" is the depth optical frame moved by the depth-colour offset (the paper's eq. 2),
+// i.e. p_camera = p_depth + depth_to_color_m, so poses come out in the frame the robot file
+// calibrates. Pixels without a reading hold NaN.
+struct OrganizedCloud {
+  PinholeModel intrinsics;  // of the whole depth image
+  Eigen::Vector3f depth_to_color_m = Eigen::Vector3f::Zero();
+  // The window of the depth image this cloud covers: pixel (u0 + i, v0 + j) is
+  // points[j * width + i].
+  int u0 = 0;
+  int v0 = 0;
+  int width = 0;
+  int height = 0;
+  std::vector<Eigen::Vector3f> points;
+
+  static bool valid(const Eigen::Vector3f& p) { return p.z() == p.z(); }
+  const Eigen::Vector3f& at(int i, int j) const {
+    return points[static_cast<std::size_t>(j) * width + i];
+  }
+  std::size_t valid_count() const;
+};
+
+// The whole frame as a cloud; readings outside [min_range_m, max_range_m] are dropped.
+OrganizedCloud organized_cloud(const DepthFrame& frame,
+                               const Eigen::Vector3d& depth_to_color_m = Eigen::Vector3d::Zero(),
+                               double min_range_m = 0.0,
+                               double max_range_m = std::numeric_limits<double>::infinity());
+
+// Only the points within `radius_m` of `centre_camera` (camera frame), in the smallest window
+// of the image that holds the sphere's projection. Cheaper than organized_cloud + a filter,
+// because pixels outside the window are never touched.
+OrganizedCloud crop_sphere(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
+                           const Eigen::Vector3d& centre_camera, double radius_m);
+
+// Pixelwise average of frames of one size: the mean of the readings within 3 % of the pixel's
+// median, and no reading where fewer than half the frames had one (so dropouts neither pull the
+// depth toward 0 nor invent points). Time stamp and sequence of the last frame. Throws
+// std::invalid_argument on an empty list or frames of different sizes.
+DepthFrame average_depth_frames(const std::vector<DepthFrame>& frames);
+
+// One stage of the coarse-to-fine schedule.
+struct IcpStage {
+  int pyramid_level = 0;  // 0 = full resolution, each level halves width and height
+  int max_model_points = 2000;  // uniform subset of the model used at this stage
+  int search_radius_px = 0;  // association window: +- pixels around the projection, at this level
+  double max_distance_m = 0.01;  // correspondences farther apart are rejected
+  int iterations = 5;
+};
+
+struct IcpOptions {
+  std::vector<IcpStage> stages = default_stages();
+  double max_normal_angle_deg = 60.0;  // between model and scene normals
+  // Tukey biweight scale as a multiple of the stage's max_distance_m (<= 0: plain least squares).
+  double tukey_scale = 1.0;
+  // A stage stops early when an update moves the model by less than this.
+  double min_update_m = 1e-5;
+  double min_update_rad = 1e-5;
+  // Quality is measured at full resolution: a visible model point is an inlier when its scene
+  // point is within this distance.
+  double inlier_distance_m = 0.006;
+
+  static std::vector<IcpStage> default_stages();
+};
+
+struct RegistrationResult {
+  Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
+  bool converged = false;  // enough correspondences at every stage
+  int iterations = 0;  // over all stages
+  double inlier_fraction = 0.0;  // of the model points facing the camera that land on the image
+  double rmse_mm = 0.0;  // point-to-plane, over the inliers
+  std::size_t inliers = 0;
+  std::size_t scene_points = 0;  // valid points the registration saw
+  double time_ms = 0.0;
+};
+
+// The model prepared once for projective ICP: points in an order whose every prefix is a
+// uniform subsample, so a stage takes its first N points.
+class IcpModel {
+ public:
+  explicit IcpModel(const ModelCloud& cloud, unsigned seed = 1);
+  const std::vector<Eigen::Vector3f>& points() const { return points_; }
+  const std::vector<Eigen::Vector3f>& normals() const { return normals_; }
+  float bounding_radius_m() const { return bounding_radius_m_; }
+
+ private:
+  std::vector<Eigen::Vector3f> points_;
+  std::vector<Eigen::Vector3f> normals_;
+  float bounding_radius_m_ = 0.0f;
+};
+
+// Point-to-plane ICP of `model` against `scene` from `T_camera_model_guess`: each model point
+// facing the camera under the current estimate is projected into the depth image (a level of
+// its pyramid), matched with the scene point at that pixel or the nearest within the stage's
+// window, rejected by distance and normal angle, weighted by Tukey's biweight, and each
+// iteration solves the 6-DoF Gauss-Newton step with LDLT. time_ms covers the whole call.
+RegistrationResult align_projective_icp(const IcpModel& model, const OrganizedCloud& scene,
+                                        const Eigen::Isometry3d& T_camera_model_guess,
+                                        const IcpOptions& options = {});
+
+// The same from the frame: crops to the model's bounding sphere plus `crop_margin_m` around the
+// guess, then aligns; time_ms includes the crop.
+RegistrationResult align_projective_icp(const IcpModel& model, const DepthFrame& frame,
+                                        const Eigen::Vector3d& depth_to_color_m,
+                                        const Eigen::Isometry3d& T_camera_model_guess,
+                                        double crop_margin_m, const IcpOptions& options = {});
+
+// Quality of a pose, measured as align_projective_icp measures it at its end (full resolution,
+// no window): inlier fraction and RMSE for `T_camera_model`.
+RegistrationResult evaluate_alignment(const IcpModel& model, const OrganizedCloud& scene,
+                                      const Eigen::Isometry3d& T_camera_model,
+                                      const IcpOptions& options = {});
+
+}  // namespace projtour

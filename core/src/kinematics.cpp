@@ -1,0 +1,246 @@
+#include "projtour/kinematics.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <vector>
+
+#include "projtour/geometry.hpp"
+
+namespace projtour {
+
+namespace {
+
+Eigen::Isometry3d rot_z(double angle_rad) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(angle_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return T;
+}
+
+Eigen::Isometry3d rot_y(double angle_rad) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(angle_rad, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  return T;
+}
+
+// Geometry of a perpendicular pan-tilt axis pair and a projector whose optical axis is
+// perpendicular to the tilt axis below this tolerance: the closed form is exact there.
+constexpr double kAxisTolerance = 1e-9;
+// A pan-link projector has one degree of freedom: accept a point this close to its axis.
+constexpr double kPanOnlyTolerance_m = 1e-5;
+
+std::string fmt_deg(double rad) {
+  std::ostringstream s;
+  s.precision(1);
+  s << std::fixed << rad_to_deg(rad);
+  return s.str();
+}
+
+std::string fmt_m(double m) {
+  std::ostringstream s;
+  s.precision(3);
+  s << std::fixed << m;
+  return s.str();
+}
+
+// Pan angles (within (-2pi, 2pi) and the limits) equal to `angle` modulo 2pi.
+std::vector<double> pan_representatives(double angle_rad, double min_rad, double max_rad) {
+  std::vector<double> out;
+  const double base = wrap_angle_rad(angle_rad);
+  for (double candidate : {base - 2.0 * kPi, base, base + 2.0 * kPi}) {
+    if (candidate >= min_rad - 1e-12 && candidate <= max_rad + 1e-12) out.push_back(candidate);
+  }
+  if (out.empty()) out.push_back(base);  // outside the limits: kept so the reason names it
+  return out;
+}
+
+}  // namespace
+
+HeadKinematics::HeadKinematics(const PanTiltSpec& pan_tilt, const MountSpec& camera_mount,
+                               const MountSpec& projector_mount)
+    : pan_tilt_(pan_tilt), camera_mount_(camera_mount), projector_mount_(projector_mount) {}
+
+HeadKinematics::HeadKinematics(const RobotSpec& robot)
+    : HeadKinematics(robot.pan_tilt, robot.camera.mount, robot.projector.mount) {}
+
+Eigen::Isometry3d HeadKinematics::T_base_pan(const JointAngles& q) const {
+  return pan_tilt_.T_base_pan0 * rot_z(q.pan_rad);
+}
+
+Eigen::Isometry3d HeadKinematics::T_base_tilt(const JointAngles& q) const {
+  return T_base_pan(q) * pan_tilt_.T_pan_tilt0 * rot_y(q.tilt_rad);
+}
+
+namespace {
+Eigen::Isometry3d T_base_optical(const HeadKinematics& k, const MountSpec& mount,
+                                 const JointAngles& q) {
+  const Eigen::Isometry3d T_base_link =
+      mount.link == Link::pan ? k.T_base_pan(q) : k.T_base_tilt(q);
+  return T_base_link * mount.T_link_body * T_body_optical();
+}
+}  // namespace
+
+Eigen::Isometry3d HeadKinematics::T_base_camera(const JointAngles& q) const {
+  return T_base_optical(*this, camera_mount_, q);
+}
+
+Eigen::Isometry3d HeadKinematics::T_base_projector(const JointAngles& q) const {
+  return T_base_optical(*this, projector_mount_, q);
+}
+
+Eigen::Isometry3d HeadKinematics::T_projector_camera(const JointAngles& q) const {
+  return T_base_projector(q).inverse() * T_base_camera(q);
+}
+
+bool HeadKinematics::within_limits(const JointAngles& q) const {
+  constexpr double eps_rad = 1e-9;
+  return q.pan_rad >= deg_to_rad(pan_tilt_.pan_min_deg) - eps_rad &&
+         q.pan_rad <= deg_to_rad(pan_tilt_.pan_max_deg) + eps_rad &&
+         q.tilt_rad >= deg_to_rad(pan_tilt_.tilt_min_deg) - eps_rad &&
+         q.tilt_rad <= deg_to_rad(pan_tilt_.tilt_max_deg) + eps_rad;
+}
+
+// Closed form, in the pan joint frame (pan0: pan about z) and the tilt joint frame (tilt0 on the
+// pan link: tilt about y). With the tilt axis horizontal in the pan link and the optical axis
+// perpendicular to it, the optical axis always lies in the plane {y_tilt0 = h_c}; so
+//  1. pan: the point's component along the tilt axis must equal the axis' lateral offset from
+//     the pan axis: r cos(phi - alpha - pan) = a.t0 + c_y  ->  two pan angles;
+//  2. tilt: rotating about y preserves the distance from the tilt axis; along the optical
+//     axis c + s d that distance is |c_xz + s d_xz| = |q_xz|, a quadratic in s (take s > 0), and
+//     tilt is the angle turning c_xz + s d_xz onto q_xz in the (z, x) plane.
+std::optional<JointAngles> HeadKinematics::aim_projector_at(const Eigen::Vector3d& p_base,
+                                                            std::string* why) const {
+  auto fail = [&](const std::string& reason) -> std::optional<JointAngles> {
+    if (why != nullptr) *why = reason;
+    return std::nullopt;
+  };
+  const double pan_min = deg_to_rad(pan_tilt_.pan_min_deg);
+  const double pan_max = deg_to_rad(pan_tilt_.pan_max_deg);
+  const double tilt_min = deg_to_rad(pan_tilt_.tilt_min_deg);
+  const double tilt_max = deg_to_rad(pan_tilt_.tilt_max_deg);
+
+  const Eigen::Vector3d p0 = pan_tilt_.T_base_pan0.inverse() * p_base;
+  const double r = std::hypot(p0.x(), p0.y());
+  const double phi = std::atan2(p0.y(), p0.x());
+
+  // Optical axis (centre c, unit direction d) in the projector's link frame.
+  const Eigen::Vector3d c_link = projector_mount_.T_link_body.translation();
+  const Eigen::Vector3d d_link = projector_mount_.T_link_body.linear().col(0).normalized();
+
+  std::vector<JointAngles> solutions;
+  // Every candidate's reason, so "out of reach" says what each way of reaching would need.
+  std::vector<std::string> rejections;
+  auto reject = [&rejections](const std::string& reason) {
+    if (std::find(rejections.begin(), rejections.end(), reason) == rejections.end()) {
+      rejections.push_back(reason);
+    }
+  };
+
+  if (projector_mount_.link == Link::pan) {
+    // One degree of freedom: the point must lie on the cone the axis sweeps. Pan so that the
+    // point is in the axis' vertical plane, then check its distance to the axis.
+    const Eigen::Vector2d d_h(d_link.x(), d_link.y());
+    if (d_h.norm() < kAxisTolerance)
+      return fail("projector on the pan link looks straight up/down");
+    const Eigen::Vector2d n_h = Eigen::Vector2d(-d_h.y(), d_h.x()).normalized();  // left of axis
+    const double h = n_h.dot(Eigen::Vector2d(c_link.x(), c_link.y()));
+    if (r < std::abs(h)) {
+      return fail("point " + fmt_m(r) +
+                  " m from the pan axis, inside the projector's lateral offset " +
+                  fmt_m(std::abs(h)) + " m");
+    }
+    const double alpha = std::atan2(n_h.y(), n_h.x());
+    double best_off_m = 1e300;
+    for (double sign : {1.0, -1.0}) {
+      const double psi = sign * std::acos(std::clamp(h / r, -1.0, 1.0));
+      for (double pan : pan_representatives(phi - alpha - psi, pan_min, pan_max)) {
+        const JointAngles q{pan, 0.0};
+        const Eigen::Vector3d p_pan = rot_z(pan).inverse() * p0;
+        const double s = (p_pan - c_link).dot(d_link);
+        const double off_m = ((p_pan - c_link) - s * d_link).norm();
+        if (s <= 0.0) continue;
+        best_off_m = std::min(best_off_m, off_m);
+        if (off_m > kPanOnlyTolerance_m) continue;
+        if (q.pan_rad < pan_min - 1e-12 || q.pan_rad > pan_max + 1e-12) {
+          reject("needs pan " + fmt_deg(pan) + " deg outside [" + fmt_deg(pan_min) + ", " +
+                 fmt_deg(pan_max) + "] deg");
+          continue;
+        }
+        solutions.push_back({pan, std::clamp(0.0, tilt_min, tilt_max)});
+      }
+    }
+    if (solutions.empty() && rejections.empty()) {
+      reject("projector on the pan link: tilt cannot raise or lower its axis, which passes " +
+             (best_off_m < 1e299 ? fmt_m(best_off_m) + " m" : std::string("nowhere near")) +
+             " from the point");
+    }
+  } else {
+    const Eigen::Isometry3d& T_pan_tilt0 = pan_tilt_.T_pan_tilt0;
+    const Eigen::Vector3d a = T_pan_tilt0.linear().col(1);  // tilt axis in the pan link
+    if (std::abs(a.z()) > kAxisTolerance) {
+      return fail("tilt axis not perpendicular to the pan axis (closed form needs them so)");
+    }
+    if (std::abs(d_link.y()) > kAxisTolerance) {
+      return fail(
+          "projector optical axis not perpendicular to the tilt axis (closed form needs it)");
+    }
+    const Eigen::Vector3d t0 = T_pan_tilt0.translation();
+    const double h = a.dot(t0) + c_link.y();  // lateral offset of the optical axis' plane
+    if (r < std::abs(h)) {
+      return fail("point " + fmt_m(r) +
+                  " m from the pan axis, inside the optical axis' lateral offset " +
+                  fmt_m(std::abs(h)) + " m");
+    }
+    const double alpha = std::atan2(a.y(), a.x());
+    const Eigen::Vector2d c_xz(c_link.x(), c_link.z());
+    const Eigen::Vector2d d_xz = Eigen::Vector2d(d_link.x(), d_link.z()).normalized();
+    for (double sign : {1.0, -1.0}) {
+      const double psi = sign * std::acos(std::clamp(h / r, -1.0, 1.0));
+      for (double pan : pan_representatives(phi - alpha - psi, pan_min, pan_max)) {
+        const Eigen::Vector3d q3 = T_pan_tilt0.inverse() * (rot_z(pan).inverse() * p0);
+        const Eigen::Vector2d q_xz(q3.x(), q3.z());
+        // |c_xz + s d_xz|^2 = |q_xz|^2
+        const double b = c_xz.dot(d_xz);
+        const double disc = b * b - c_xz.squaredNorm() + q_xz.squaredNorm();
+        if (disc < 0.0) {
+          reject("point inside the circle the optical axis keeps clear of the tilt axis");
+          continue;
+        }
+        const double s = -b + std::sqrt(disc);  // the larger root: the point in front
+        if (s <= 0.0) {
+          reject("point behind the projector for every tilt");
+          continue;
+        }
+        const Eigen::Vector2d v_xz = c_xz + s * d_xz;
+        // Ry(t) turns (z, x) counter-clockwise by t: angle from v to q in (z, x) coordinates.
+        const double cross = v_xz.y() * q_xz.x() - v_xz.x() * q_xz.y();
+        const double dot = v_xz.y() * q_xz.y() + v_xz.x() * q_xz.x();
+        const double tilt = std::atan2(cross, dot);
+        if (pan < pan_min - 1e-12 || pan > pan_max + 1e-12) {
+          reject("needs pan " + fmt_deg(pan) + " deg outside [" + fmt_deg(pan_min) + ", " +
+                 fmt_deg(pan_max) + "] deg");
+          continue;
+        }
+        if (tilt < tilt_min - 1e-12 || tilt > tilt_max + 1e-12) {
+          reject("needs tilt " + fmt_deg(tilt) + " deg (positive looks down) outside [" +
+                 fmt_deg(tilt_min) + ", " + fmt_deg(tilt_max) + "] deg");
+          continue;
+        }
+        solutions.push_back({pan, tilt});
+      }
+    }
+  }
+
+  if (solutions.empty()) {
+    std::string reason;
+    for (const std::string& r2 : rejections) reason += (reason.empty() ? "" : "; or ") + r2;
+    return fail(reason.empty() ? "no solution" : reason);
+  }
+  // The least head motion from straight ahead.
+  return *std::min_element(solutions.begin(), solutions.end(), [](const auto& l, const auto& r2) {
+    return std::abs(l.pan_rad) + std::abs(l.tilt_rad) <
+           std::abs(r2.pan_rad) + std::abs(r2.tilt_rad);
+  });
+}
+
+}  // namespace projtour

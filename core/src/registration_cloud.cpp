@@ -1,0 +1,182 @@
+// Depth frames to organized clouds: whole frame, a crop around a sphere, and frame averaging.
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "projtour/registration.hpp"
+
+namespace projtour {
+
+std::size_t OrganizedCloud::valid_count() const {
+  return static_cast<std::size_t>(
+      std::count_if(points.begin(), points.end(), [](const Eigen::Vector3f& p) { return valid(p); }));
+}
+
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// Turns pixels into unit-depth rays, with the distortion model only when the camera has one
+// (undistorting is an iterative solve per pixel).
+class RayMaker {
+ public:
+  explicit RayMaker(const PinholeModel& k)
+      : k_(k), distorted_(k.has_distortion()), inv_fx_(1.0 / k.fx), inv_fy_(1.0 / k.fy) {}
+  Eigen::Vector2f ray(int u, int v) const {
+    if (distorted_) {
+      const Eigen::Vector3d r = k_.unproject(Eigen::Vector2d(u, v));
+      return r.head<2>().cast<float>();
+    }
+    return {static_cast<float>((u - k_.cx) * inv_fx_), static_cast<float>((v - k_.cy) * inv_fy_)};
+  }
+
+ private:
+  const PinholeModel& k_;
+  bool distorted_;
+  double inv_fx_, inv_fy_;
+};
+
+void check_frame(const DepthFrame& frame) {
+  if (frame.width <= 0 || frame.height <= 0 ||
+      frame.depth_mm.size() != static_cast<std::size_t>(frame.width) * frame.height) {
+    throw std::invalid_argument("depth frame: size does not match its pixel count");
+  }
+  if (frame.intrinsics.fx <= 0.0 || frame.intrinsics.fy <= 0.0) {
+    throw std::invalid_argument("depth frame: intrinsics without a focal length");
+  }
+}
+
+OrganizedCloud empty_window(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
+                            int u0, int v0, int width, int height) {
+  OrganizedCloud cloud;
+  cloud.intrinsics = frame.intrinsics;
+  cloud.intrinsics.width = frame.width;
+  cloud.intrinsics.height = frame.height;
+  cloud.depth_to_color_m = depth_to_color_m.cast<float>();
+  cloud.u0 = u0;
+  cloud.v0 = v0;
+  cloud.width = width;
+  cloud.height = height;
+  cloud.points.assign(static_cast<std::size_t>(width) * height, Eigen::Vector3f::Constant(kNaN));
+  return cloud;
+}
+
+}  // namespace
+
+OrganizedCloud organized_cloud(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
+                               double min_range_m, double max_range_m) {
+  check_frame(frame);
+  OrganizedCloud cloud = empty_window(frame, depth_to_color_m, 0, 0, frame.width, frame.height);
+  const RayMaker rays(frame.intrinsics);
+  const float min_z = static_cast<float>(min_range_m), max_z = static_cast<float>(max_range_m);
+  for (int v = 0; v < frame.height; ++v) {
+    for (int u = 0; u < frame.width; ++u) {
+      const std::uint16_t d = frame.at(u, v);
+      const float z = d * 0.001f;
+      if (d == 0 || z < min_z || z > max_z) continue;
+      const Eigen::Vector2f r = rays.ray(u, v);
+      cloud.points[static_cast<std::size_t>(v) * frame.width + u] =
+          Eigen::Vector3f(r.x() * z, r.y() * z, z) + cloud.depth_to_color_m;
+    }
+  }
+  return cloud;
+}
+
+OrganizedCloud crop_sphere(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
+                           const Eigen::Vector3d& centre_camera, double radius_m) {
+  check_frame(frame);
+  const Eigen::Vector3d c = centre_camera - depth_to_color_m;  // in the depth optical frame
+  const double r = radius_m;
+  if (!(r > 0.0) || c.z() + r <= 0.0) return empty_window(frame, depth_to_color_m, 0, 0, 0, 0);
+
+  // The window: bounds of x/z and y/z over the sphere's bounding box (conservative), or the
+  // whole image when the sphere reaches the camera.
+  int u_lo = 0, u_hi = frame.width, v_lo = 0, v_hi = frame.height;
+  const PinholeModel& k = frame.intrinsics;
+  const double z_near = c.z() - r, z_far = c.z() + r;
+  if (z_near > 1e-3) {
+    auto bound = [&](double lo, double hi) {
+      return std::pair<double, double>(lo / (lo < 0 ? z_near : z_far),
+                                       hi / (hi < 0 ? z_far : z_near));
+    };
+    const auto [xl, xh] = bound(c.x() - r, c.x() + r);
+    const auto [yl, yh] = bound(c.y() - r, c.y() + r);
+    double pu_lo = k.fx * xl + k.cx, pu_hi = k.fx * xh + k.cx;
+    double pv_lo = k.fy * yl + k.cy, pv_hi = k.fy * yh + k.cy;
+    if (k.has_distortion()) {
+      // Distortion moves the box's corners; take the hull of the distorted corners with slack.
+      pu_lo = pv_lo = 1e9;
+      pu_hi = pv_hi = -1e9;
+      for (double x : {xl, xh}) {
+        for (double y : {yl, yh}) {
+          const auto px = k.project(Eigen::Vector3d(x, y, 1.0));
+          pu_lo = std::min(pu_lo, px->x()), pu_hi = std::max(pu_hi, px->x());
+          pv_lo = std::min(pv_lo, px->y()), pv_hi = std::max(pv_hi, px->y());
+        }
+      }
+      pu_lo -= 8, pv_lo -= 8, pu_hi += 8, pv_hi += 8;
+    }
+    u_lo = std::clamp(static_cast<int>(std::floor(pu_lo)), 0, frame.width);
+    u_hi = std::clamp(static_cast<int>(std::ceil(pu_hi)) + 1, 0, frame.width);
+    v_lo = std::clamp(static_cast<int>(std::floor(pv_lo)), 0, frame.height);
+    v_hi = std::clamp(static_cast<int>(std::ceil(pv_hi)) + 1, 0, frame.height);
+  }
+  const int w = std::max(0, u_hi - u_lo), h = std::max(0, v_hi - v_lo);
+  OrganizedCloud cloud = empty_window(frame, depth_to_color_m, u_lo, v_lo, w, h);
+
+  const RayMaker rays(frame.intrinsics);
+  const Eigen::Vector3f cf = c.cast<float>();
+  const float r2 = static_cast<float>(r * r);
+  const float z_min = static_cast<float>(std::max(0.0, z_near)), z_max = static_cast<float>(z_far);
+  for (int j = 0; j < h; ++j) {
+    const int v = v_lo + j;
+    for (int i = 0; i < w; ++i) {
+      const int u = u_lo + i;
+      const std::uint16_t d = frame.at(u, v);
+      const float z = d * 0.001f;
+      if (d == 0 || z < z_min || z > z_max) continue;  // cheap rejection before the ray
+      const Eigen::Vector2f ray = rays.ray(u, v);
+      const Eigen::Vector3f p(ray.x() * z, ray.y() * z, z);
+      if ((p - cf).squaredNorm() > r2) continue;
+      cloud.points[static_cast<std::size_t>(j) * w + i] = p + cloud.depth_to_color_m;
+    }
+  }
+  return cloud;
+}
+
+DepthFrame average_depth_frames(const std::vector<DepthFrame>& frames) {
+  if (frames.empty()) throw std::invalid_argument("average_depth_frames: no frames");
+  const DepthFrame& first = frames.front();
+  for (const DepthFrame& f : frames) {
+    if (f.width != first.width || f.height != first.height ||
+        f.depth_mm.size() != first.depth_mm.size()) {
+      throw std::invalid_argument("average_depth_frames: frames of different sizes");
+    }
+  }
+  DepthFrame out = frames.back();
+  if (frames.size() == 1) return out;
+  const std::size_t needed = (frames.size() + 1) / 2;
+  std::vector<std::uint16_t> readings;
+  readings.reserve(frames.size());
+  for (std::size_t p = 0; p < out.depth_mm.size(); ++p) {
+    readings.clear();
+    for (const DepthFrame& f : frames) {
+      if (f.depth_mm[p] != 0) readings.push_back(f.depth_mm[p]);
+    }
+    if (readings.size() < needed) {
+      out.depth_mm[p] = 0;
+      continue;
+    }
+    std::nth_element(readings.begin(), readings.begin() + readings.size() / 2, readings.end());
+    const double median = readings[readings.size() / 2];
+    double sum = 0.0;
+    int count = 0;
+    for (std::uint16_t d : readings) {
+      if (std::abs(d - median) <= 0.03 * median) sum += d, ++count;
+    }
+    out.depth_mm[p] = static_cast<std::uint16_t>(std::lround(sum / count));
+  }
+  return out;
+}
+
+}  // namespace projtour

@@ -1,0 +1,373 @@
+// Point-to-plane ICP with projective data association through the organized depth image.
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+#include <stdexcept>
+
+#include "projtour/geometry.hpp"
+#include "projtour/registration.hpp"
+
+namespace projtour {
+
+std::vector<IcpStage> IcpOptions::default_stages() {
+  // Coarse levels see the whole target in few pixels, and their window lets a model point find
+  // its surface several centimetres away; the fine levels then settle on the noise floor.
+  return {
+      {3, 300, 3, 0.12, 12},
+      {2, 600, 2, 0.05, 8},
+      {1, 1200, 1, 0.02, 6},
+      {0, 2500, 0, 0.01, 5},
+  };
+}
+
+IcpModel::IcpModel(const ModelCloud& cloud, unsigned seed)
+    : bounding_radius_m_(cloud.bounding_radius_m) {
+  if (cloud.points.size() != cloud.normals.size()) {
+    throw std::invalid_argument("IcpModel: points and normals differ in number");
+  }
+  std::vector<std::size_t> order(cloud.points.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::mt19937 rng(seed);
+  // Fisher-Yates with our own draw: std::shuffle's sequence differs between standard libraries.
+  for (std::size_t i = order.size(); i > 1; --i) {
+    std::swap(order[i - 1], order[rng() % i]);
+  }
+  points_.reserve(order.size());
+  normals_.reserve(order.size());
+  for (std::size_t i : order) {
+    points_.push_back(cloud.points[i]);
+    normals_.push_back(cloud.normals[i].normalized());
+  }
+  if (bounding_radius_m_ <= 0.0f) {
+    for (const auto& p : points_) bounding_radius_m_ = std::max(bounding_radius_m_, p.norm());
+  }
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// One level of the scene pyramid: a window of the image at 1 / 2^level resolution.
+// Level 0 borrows the scene's points; coarser levels own theirs.
+struct Level {
+  int u0 = 0, v0 = 0, width = 0, height = 0;
+  int scale = 1;
+  std::vector<Eigen::Vector3f> storage;
+  const Eigen::Vector3f* points = nullptr;
+  const Eigen::Vector3f& at(int i, int j) const {
+    return points[static_cast<std::size_t>(j) * width + i];
+  }
+};
+
+Level borrow(const OrganizedCloud& scene) {
+  Level level;
+  level.u0 = scene.u0;
+  level.v0 = scene.v0;
+  level.width = scene.width;
+  level.height = scene.height;
+  level.points = scene.points.data();
+  return level;
+}
+
+// Each coarser pixel averages the finer 2x2 block's points near its nearest one, so silhouette
+// edges stay sharp instead of blending foreground and background.
+Level downsample(const Level& fine) {
+  Level coarse;
+  coarse.scale = fine.scale * 2;
+  coarse.u0 = fine.u0 >> 1;
+  coarse.v0 = fine.v0 >> 1;
+  coarse.width = std::max(0, ((fine.u0 + fine.width + 1) >> 1) - coarse.u0);
+  coarse.height = std::max(0, ((fine.v0 + fine.height + 1) >> 1) - coarse.v0);
+  coarse.storage.assign(static_cast<std::size_t>(coarse.width) * coarse.height,
+                        Eigen::Vector3f::Constant(kNaN));
+  coarse.points = coarse.storage.data();
+  for (int j = 0; j < coarse.height; ++j) {
+    for (int i = 0; i < coarse.width; ++i) {
+      const Eigen::Vector3f* block[4];
+      int n = 0;
+      float z_min = std::numeric_limits<float>::max();
+      for (int dj = 0; dj < 2; ++dj) {
+        for (int di = 0; di < 2; ++di) {
+          const int fi = 2 * (coarse.u0 + i) + di - fine.u0;
+          const int fj = 2 * (coarse.v0 + j) + dj - fine.v0;
+          if (fi < 0 || fj < 0 || fi >= fine.width || fj >= fine.height) continue;
+          const Eigen::Vector3f& p = fine.at(fi, fj);
+          if (!OrganizedCloud::valid(p)) continue;
+          block[n++] = &p;
+          z_min = std::min(z_min, p.z());
+        }
+      }
+      if (n == 0) continue;
+      Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+      int count = 0;
+      const float tolerance = 0.02f * z_min;
+      for (int k = 0; k < n; ++k) {
+        if (block[k]->z() - z_min <= tolerance) sum += *block[k], ++count;
+      }
+      coarse.storage[static_cast<std::size_t>(j) * coarse.width + i] = sum / count;
+    }
+  }
+  return coarse;
+}
+
+// Projects camera-frame points into the depth image at some pyramid level.
+class Projector {
+ public:
+  explicit Projector(const OrganizedCloud& scene)
+      : k_(scene.intrinsics),
+        distorted_(scene.intrinsics.has_distortion()),
+        origin_(scene.depth_to_color_m) {}
+  // The depth camera's centre in the camera frame: where view rays start.
+  const Eigen::Vector3f& origin() const { return origin_; }
+  // Integer pixel at `level` (full-resolution pixel centres map to 2^-level of themselves).
+  bool pixel(const Eigen::Vector3f& p_camera, const Level& level, int& i, int& j) const {
+    const Eigen::Vector3f p = p_camera - origin_;
+    if (p.z() <= 1e-3f) return false;
+    double u, v;
+    if (distorted_) {
+      const auto px = k_.project(p.cast<double>());
+      u = px->x(), v = px->y();
+    } else {
+      u = k_.fx * p.x() / p.z() + k_.cx;
+      v = k_.fy * p.y() / p.z() + k_.cy;
+    }
+    const double s = level.scale;
+    i = static_cast<int>(std::floor((u + 0.5) / s)) - level.u0;
+    j = static_cast<int>(std::floor((v + 0.5) / s)) - level.v0;
+    return i >= 0 && j >= 0 && i < level.width && j < level.height;
+  }
+
+ private:
+  const PinholeModel& k_;
+  bool distorted_;
+  Eigen::Vector3f origin_;
+};
+
+// Scene normal at a pixel from its neighbours `step` pixels away, facing the camera; zero
+// when the neighbourhood has too few points.
+Eigen::Vector3f scene_normal(const Level& level, int i, int j, int step,
+                             const Eigen::Vector3f& view_origin) {
+  auto valid_at = [&](int a, int b) -> const Eigen::Vector3f* {
+    if (a < 0 || b < 0 || a >= level.width || b >= level.height) return nullptr;
+    const Eigen::Vector3f& p = level.at(a, b);
+    return OrganizedCloud::valid(p) ? &p : nullptr;
+  };
+  const Eigen::Vector3f* c = valid_at(i, j);
+  const Eigen::Vector3f* r = valid_at(i + step, j);
+  const Eigen::Vector3f* l = valid_at(i - step, j);
+  const Eigen::Vector3f* d = valid_at(i, j + step);
+  const Eigen::Vector3f* u = valid_at(i, j - step);
+  const Eigen::Vector3f* h0 = l ? l : c;
+  const Eigen::Vector3f* h1 = r ? r : c;
+  const Eigen::Vector3f* v0 = u ? u : c;
+  const Eigen::Vector3f* v1 = d ? d : c;
+  if (h0 == h1 || v0 == v1) return Eigen::Vector3f::Zero();
+  Eigen::Vector3f n = (*h1 - *h0).cross(*v1 - *v0);
+  const float norm = n.norm();
+  if (norm <= 0.0f) return Eigen::Vector3f::Zero();
+  n /= norm;
+  if (n.dot(*c - view_origin) > 0.0f) n = -n;
+  return n;
+}
+
+struct Match {
+  Eigen::Vector3f p;  // model point under the current estimate
+  Eigen::Vector3f n;  // its normal
+  Eigen::Vector3f q;  // scene point
+};
+
+// The scene point for a model point: at its pixel, or the nearest within +-radius pixels.
+bool associate(const Level& level, const Projector& projector, const Eigen::Vector3f& p,
+               int radius_px, Eigen::Vector3f& q, int& qi, int& qj) {
+  int i, j;
+  if (!projector.pixel(p, level, i, j)) return false;
+  float best = std::numeric_limits<float>::max();
+  const int i_lo = std::max(0, i - radius_px), i_hi = std::min(level.width - 1, i + radius_px);
+  const int j_lo = std::max(0, j - radius_px), j_hi = std::min(level.height - 1, j + radius_px);
+  for (int b = j_lo; b <= j_hi; ++b) {
+    for (int a = i_lo; a <= i_hi; ++a) {
+      const Eigen::Vector3f& s = level.at(a, b);
+      if (!OrganizedCloud::valid(s)) continue;
+      const float d2 = (s - p).squaredNorm();
+      if (d2 < best) best = d2, qi = a, qj = b;
+    }
+  }
+  if (best == std::numeric_limits<float>::max()) return false;
+  q = level.at(qi, qj);
+  return true;
+}
+
+Eigen::Isometry3d apply_twist(const Eigen::Matrix<double, 6, 1>& xi, const Eigen::Isometry3d& T) {
+  Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();
+  const Eigen::Vector3d w = xi.head<3>();
+  const double angle = w.norm();
+  if (angle > 0.0) delta.linear() = Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
+  delta.translation() = xi.tail<3>();
+  Eigen::Isometry3d out = delta * T;
+  // Re-orthonormalize so thousands of small updates never drift off SO(3).
+  out.linear() = Eigen::Quaterniond(out.linear()).normalized().toRotationMatrix();
+  return out;
+}
+
+// Scene normals from neighbours this far apart: wide enough at full resolution to see through
+// the sensor noise, adjacent at the coarse levels where averaging already smoothed it.
+int normal_step(const Level& level) { return level.scale == 1 ? 2 : 1; }
+
+void measure_quality(const IcpModel& model, const Level& level, const Projector& projector,
+                     const Eigen::Isometry3d& T, const IcpOptions& options,
+                     RegistrationResult& result) {
+  const Eigen::Matrix3f R = T.linear().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  const std::size_t n_model = std::min<std::size_t>(
+      model.points().size(),
+      options.stages.empty() ? model.points().size()
+                             : static_cast<std::size_t>(options.stages.back().max_model_points));
+  const float inlier_m = static_cast<float>(options.inlier_distance_m);
+  std::size_t candidates = 0, inliers = 0;
+  double sum_sq = 0.0;
+  for (std::size_t k = 0; k < n_model; ++k) {
+    const Eigen::Vector3f p = R * model.points()[k] + t;
+    const Eigen::Vector3f n = R * model.normals()[k];
+    if (n.dot(p - projector.origin()) >= 0.0f) continue;
+    int i, j;
+    if (!projector.pixel(p, level, i, j)) continue;
+    ++candidates;
+    const Eigen::Vector3f& q = level.at(i, j);
+    if (!OrganizedCloud::valid(q) || (q - p).norm() > inlier_m) continue;
+    ++inliers;
+    const double r = n.dot(p - q);
+    sum_sq += r * r;
+  }
+  result.inliers = inliers;
+  result.inlier_fraction = candidates > 0 ? static_cast<double>(inliers) / candidates : 0.0;
+  result.rmse_mm = inliers > 0 ? 1000.0 * std::sqrt(sum_sq / inliers) : 0.0;
+}
+
+std::vector<Level> build_pyramid(const OrganizedCloud& scene, int levels) {
+  std::vector<Level> pyramid;
+  pyramid.reserve(levels);
+  pyramid.push_back(borrow(scene));
+  for (int l = 1; l < levels; ++l) pyramid.push_back(downsample(pyramid.back()));
+  return pyramid;
+}
+
+RegistrationResult align_impl(const IcpModel& model, const OrganizedCloud& scene,
+                              const Eigen::Isometry3d& guess, const IcpOptions& options,
+                              Clock::time_point started) {
+  RegistrationResult result;
+  result.T_camera_model = guess;
+  result.scene_points = scene.valid_count();
+  int levels = 1;
+  for (const IcpStage& s : options.stages) levels = std::max(levels, s.pyramid_level + 1);
+  const std::vector<Level> pyramid = build_pyramid(scene, levels);
+  const Projector projector(scene);
+  const float cos_max_angle =
+      static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180.0));
+
+  Eigen::Isometry3d T = guess;
+  bool every_stage_matched = true;
+  std::vector<Match> matches;
+  for (const IcpStage& stage : options.stages) {
+    const Level& level = pyramid[stage.pyramid_level];
+    const std::size_t n_model =
+        std::min<std::size_t>(model.points().size(), static_cast<std::size_t>(stage.max_model_points));
+    const float max_d2 = static_cast<float>(stage.max_distance_m * stage.max_distance_m);
+    const double tukey_c = options.tukey_scale * stage.max_distance_m;
+    const int step = normal_step(level);
+    for (int it = 0; it < stage.iterations; ++it) {
+      const Eigen::Matrix3f R = T.linear().cast<float>();
+      const Eigen::Vector3f t = T.translation().cast<float>();
+      matches.clear();
+      for (std::size_t k = 0; k < n_model; ++k) {
+        Match m;
+        m.p = R * model.points()[k] + t;
+        m.n = R * model.normals()[k];
+        // Only the side facing the camera can be seen; the back side would otherwise match
+        // the support plane or the far surface of the target itself.
+        if (m.n.dot(m.p - projector.origin()) >= 0.0f) continue;
+        int qi, qj;
+        if (!associate(level, projector, m.p, stage.search_radius_px, m.q, qi, qj)) continue;
+        if ((m.q - m.p).squaredNorm() > max_d2) continue;
+        const Eigen::Vector3f ns = scene_normal(level, qi, qj, step, projector.origin());
+        if (ns.isZero() || ns.dot(m.n) < cos_max_angle) continue;
+        matches.push_back(m);
+      }
+      ++result.iterations;
+      if (matches.size() < 12) {
+        every_stage_matched = false;
+        break;
+      }
+      Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
+      Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+      for (const Match& m : matches) {
+        const double r = m.n.dot(m.p - m.q);
+        double w = 1.0;
+        if (tukey_c > 0.0) {
+          const double u = r / tukey_c;
+          if (std::abs(u) >= 1.0) continue;
+          w = (1.0 - u * u) * (1.0 - u * u);
+        }
+        Eigen::Matrix<double, 6, 1> J;
+        J.head<3>() = m.p.cross(m.n).cast<double>();
+        J.tail<3>() = m.n.cast<double>();
+        H.selfadjointView<Eigen::Lower>().rankUpdate(J, w);
+        g += w * r * J;
+      }
+      H = H.selfadjointView<Eigen::Lower>();
+      // A touch of damping keeps a flat or symmetric patch from making the solve singular.
+      H.diagonal().array() += 1e-9 + 1e-6 * H.diagonal().maxCoeff();
+      const Eigen::Matrix<double, 6, 1> xi = H.ldlt().solve(-g);
+      if (!xi.allFinite()) {
+        every_stage_matched = false;
+        break;
+      }
+      T = apply_twist(xi, T);
+      if (xi.tail<3>().norm() < options.min_update_m && xi.head<3>().norm() < options.min_update_rad)
+        break;
+    }
+  }
+  result.T_camera_model = T;
+  result.converged = every_stage_matched;
+  measure_quality(model, pyramid[0], projector, T, options, result);
+  result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
+  return result;
+}
+
+}  // namespace
+
+RegistrationResult align_projective_icp(const IcpModel& model, const OrganizedCloud& scene,
+                                        const Eigen::Isometry3d& T_camera_model_guess,
+                                        const IcpOptions& options) {
+  return align_impl(model, scene, T_camera_model_guess, options, Clock::now());
+}
+
+RegistrationResult align_projective_icp(const IcpModel& model, const DepthFrame& frame,
+                                        const Eigen::Vector3d& depth_to_color_m,
+                                        const Eigen::Isometry3d& T_camera_model_guess,
+                                        double crop_margin_m, const IcpOptions& options) {
+  const auto started = Clock::now();
+  const OrganizedCloud scene =
+      crop_sphere(frame, depth_to_color_m, T_camera_model_guess.translation(),
+                  model.bounding_radius_m() + crop_margin_m);
+  return align_impl(model, scene, T_camera_model_guess, options, started);
+}
+
+RegistrationResult evaluate_alignment(const IcpModel& model, const OrganizedCloud& scene,
+                                      const Eigen::Isometry3d& T_camera_model,
+                                      const IcpOptions& options) {
+  const auto started = Clock::now();
+  RegistrationResult result;
+  result.T_camera_model = T_camera_model;
+  result.scene_points = scene.valid_count();
+  measure_quality(model, borrow(scene), Projector(scene), T_camera_model, options, result);
+  result.converged = true;
+  result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
+  return result;
+}
+
+}  // namespace projtour

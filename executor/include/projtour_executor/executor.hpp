@@ -1,0 +1,144 @@
+#pragma once
+// Runs a Machine: one leaf state active at a time, ticked at a fixed mission-time step.
+// Single-threaded: pause/resume/request_cancel are called between steps (a signal handler only
+// sets flags that the runner turns into these calls).
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "projtour/behaviour.hpp"
+#include "projtour/clock.hpp"
+#include "projtour/context.hpp"
+#include "projtour_executor/catalog.hpp"
+#include "projtour_executor/events.hpp"
+#include "projtour_executor/machine.hpp"
+
+namespace projtour {
+
+enum class TourOutcome { running, completed, completed_with_skips, aborted, interrupted };
+const char* to_string(TourOutcome outcome);
+// DESIGN.md's exit status: 0, 3, 1, 130.
+int exit_code(TourOutcome outcome);
+
+struct ExecutorOptions {
+  double tick_s = 0.05;  // 20 Hz
+  // Mission time a cancelled behaviour gets to return before it is stopped by force.
+  double cancel_grace_s = 2.0;
+};
+
+struct ServiceInstance {
+  std::string role;
+  std::shared_ptr<Service> service;
+  Params params;
+};
+
+using BehaviourInstances = std::map<std::string, std::shared_ptr<Behaviour>>;  // by leaf path
+
+// One behaviour per leaf state, all made before anything moves (a create that throws stops the
+// run before motion). Throws what the catalog throws, with the state path prepended.
+BehaviourInstances create_behaviours(const Machine& machine, const BehaviourCatalog& catalog,
+                                     const RunContext& run);
+
+class Executor {
+ public:
+  // `run` must outlive the executor and point at the mission, blackboard and `clock`.
+  Executor(Machine machine, BehaviourInstances behaviours, std::vector<ServiceInstance> services,
+           RunContext& run, SteppedClock& clock, ExecutorOptions options = {});
+  Executor(const Executor&) = delete;
+  Executor& operator=(const Executor&) = delete;
+
+  void add_observer(ExecutorObserver* observer) { observers_.push_back(observer); }
+
+  // Before start: targets already done (never revisited) and the target to visit first (an
+  // interrupted one), from a checkpoint.
+  void restore(std::vector<TargetRecord> done, std::optional<std::size_t> first_target);
+  // Starts the services and enters the root state (step() does this when not yet started).
+  void start();
+  // Enters the machine directly at `state_path` (its ancestors entered first), visiting target
+  // `target_index` if the state lies in a for_each.
+  void start_at(const std::string& state_path, std::size_t target_index);
+  // One tick: advance the clock, update drivers and services, tick the active behaviour and
+  // follow any outcome. False once the tour has ended.
+  bool step();
+  // step() until the end; returns the outcome.
+  TourOutcome run_to_end();
+
+  void pause();
+  void resume();
+  bool paused() const { return paused_; }
+  // Cooperative: the behaviour sees ctx.cancel_requested() and gets cancel_grace_s to return.
+  void request_cancel();
+
+  bool finished() const { return finished_; }
+  TourOutcome outcome() const { return outcome_; }
+  // Finished targets in the order they were visited (restored ones first).
+  const std::vector<TargetRecord>& records() const { return records_; }
+  // The target being visited (or interrupted), if any.
+  std::optional<std::size_t> current_target() const { return current_target_; }
+  // Path of the active leaf, "" when none.
+  std::string active_state() const;
+  const std::string& abort_reason() const { return abort_reason_; }
+  // Leaf paths whose behaviour ignored a cancel and had to be stopped.
+  const std::vector<std::string>& ignored_cancel() const { return ignored_cancel_; }
+  std::size_t transition_count() const { return transition_count_; }
+  std::size_t target_count() const;
+  std::size_t done_count() const { return done_.size(); }
+
+ private:
+  void start_services();
+  void emit(EventType type, const StateSpec& state, const std::string& outcome = "",
+            const std::string& message = "", const std::string& to = "");
+  void enter(const StateSpec& state);
+  void enter_leaf(const StateSpec& state);
+  void begin_visit(const StateSpec& for_each);
+  std::optional<std::size_t> choose_next_target();
+  void finish_leaf(Outcome outcome);
+  void leave_leaf(const Outcome& outcome);
+  void follow(const StateSpec& from, const TransitionSpec& transition, const std::string& reason);
+  void complete_composite(const StateSpec& composite);
+  void composite_done(const StateSpec& composite);
+  void end_visit(const std::string& outcome, const std::string& reason);
+  void unwind_to(const StateSpec* keep);
+  void abort_tour(const std::string& reason);
+  void interrupt();
+  void finish_tour(TourOutcome outcome);
+  Context make_context(const StateSpec* leaf) const;
+
+  Machine machine_;
+  BehaviourInstances behaviours_;
+  std::vector<ServiceInstance> services_;
+  std::vector<Context> service_contexts_;
+  RunContext& run_;
+  SteppedClock& clock_;
+  ExecutorOptions options_;
+  std::vector<ExecutorObserver*> observers_;
+
+  std::vector<const StateSpec*> active_;  // root ... leaf
+  Behaviour* leaf_behaviour_ = nullptr;
+  Context leaf_ctx_;
+  double leaf_elapsed_s_ = 0.0;  // mission time in the leaf, pauses excluded
+  CancelToken cancel_;
+  bool started_ = false;
+  bool paused_ = false;
+  bool cancel_requested_ = false;
+  double cancel_started_s_ = 0.0;
+  bool finished_ = false;
+  TourOutcome outcome_ = TourOutcome::running;
+  std::string driver_failure_;
+
+  std::optional<std::size_t> current_target_;
+  std::optional<std::size_t> first_target_;
+  const StateSpec* visit_state_ = nullptr;  // the for_each being visited
+  std::map<std::string, int> entries_;      // per state path, in the current visit
+  TargetRecord record_;
+  std::vector<TargetRecord> records_;
+  std::set<std::size_t> done_;
+  std::string abort_reason_;
+  std::vector<std::string> ignored_cancel_;
+  std::size_t transition_count_ = 0;
+};
+
+}  // namespace projtour

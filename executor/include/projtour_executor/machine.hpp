@@ -1,0 +1,105 @@
+#pragma once
+// The hierarchical state machine of a tour: its model, loading and checking from YAML, and the
+// built-in default machine.
+//
+// A machine is one root composite. Each state is one of
+//   leaf:      behaviour: KIND, params: {...}, timeout_s: S, retries: N, on: {OUTCOME: TARGET}
+//   composite: initial: CHILD, states: {NAME: STATE, ...}, for_each: target, on: {done: TARGET}
+//   final:     final: true  (entering it completes the enclosing composite)
+// A TARGET is a sibling state's name, one of the reserved words skip_target / finish / abort,
+// or a list of them tried in order: a sibling whose re-entries in this visit have used up its
+// `retries` is passed over. When every entry of a list is used up, the target is skipped (or
+// the tour aborted outside a for_each), with reason "retries exhausted".
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "projtour/diagnostics.hpp"
+#include "projtour/mission.hpp"
+#include "projtour/params.hpp"
+#include "projtour/yaml_reader.hpp"
+#include "projtour_executor/catalog.hpp"
+
+namespace projtour {
+
+inline constexpr const char* kSkipTarget = "skip_target";
+inline constexpr const char* kFinish = "finish";
+inline constexpr const char* kAbort = "abort";
+// The one outcome of a composite: it completed (finish, a final child, or all targets visited).
+inline constexpr const char* kOutcomeDone = "done";
+// The outcome a leaf gets when its timeout_s runs out.
+inline constexpr const char* kOutcomeTimeout = "timeout";
+
+bool is_reserved_target(const std::string& name);
+
+struct TransitionSpec {
+  std::string outcome;
+  std::vector<std::string> targets;  // fallback chain
+  SourceMark mark;
+  std::string field_path;
+};
+
+enum class StateType { leaf, composite, final_state };
+
+struct StateSpec {
+  std::string name;
+  std::string path;  // "tour/visit/align"
+  StateType type = StateType::leaf;
+  const StateSpec* parent = nullptr;
+  SourceMark mark;
+  std::string field_path;  // "states.visit.states.align"
+
+  // Leaf.
+  std::string behaviour;
+  Params params;
+  double timeout_s = 0.0;  // 0 = none
+  int retries = 0;
+
+  // Composite.
+  std::string initial;
+  bool for_each_target = false;
+  std::vector<std::unique_ptr<StateSpec>> children;
+
+  std::vector<TransitionSpec> on;
+
+  const TransitionSpec* transition(const std::string& outcome) const;
+  const StateSpec* child(const std::string& name) const;
+  bool is_leaf() const { return type == StateType::leaf; }
+  bool is_composite() const { return type == StateType::composite; }
+  // The nearest for_each composite above (or this one), or null.
+  const StateSpec* enclosing_for_each() const;
+};
+
+class Machine {
+ public:
+  Machine() = default;
+  explicit Machine(std::unique_ptr<StateSpec> root) : root_(std::move(root)) {}
+
+  const StateSpec& root() const { return *root_; }
+  // By full path ("tour/visit/align"); null when absent.
+  const StateSpec* find(const std::string& path) const;
+  // Every state, depth first in declaration order.
+  std::vector<const StateSpec*> states() const;
+  std::vector<const StateSpec*> leaves() const;
+
+ private:
+  std::shared_ptr<StateSpec> root_;
+};
+
+// Reads and checks a machine; nullopt when any error was recorded. Every problem found is
+// recorded, each with file:line:column and field path.
+std::optional<Machine> load_machine(const YamlField& field, const BehaviourCatalog& catalog,
+                                    Diagnostics& diag);
+// `machine:` of a mission: the default, an inline mapping or a file (already read by the loader).
+std::optional<Machine> load_machine(const MachineSource& source, const BehaviourCatalog& catalog,
+                                    Diagnostics& diag);
+
+// The default machine of DESIGN.md as YAML, parsed by the same loader.
+const std::string& default_machine_yaml();
+inline constexpr const char* kDefaultMachineFile = "<default machine>";
+
+// Graphviz dot: composites as clusters, reserved targets as terminal nodes.
+std::string machine_to_dot(const Machine& machine);
+
+}  // namespace projtour

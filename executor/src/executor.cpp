@@ -1,0 +1,539 @@
+#include "projtour_executor/executor.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <stdexcept>
+
+#include "projtour/blackboard_keys.hpp"
+#include "projtour_executor/measurements.hpp"
+
+namespace projtour {
+
+const char* to_string(TourOutcome outcome) {
+  switch (outcome) {
+    case TourOutcome::running:
+      return "running";
+    case TourOutcome::completed:
+      return "completed";
+    case TourOutcome::completed_with_skips:
+      return "completed_with_skips";
+    case TourOutcome::aborted:
+      return "aborted";
+    case TourOutcome::interrupted:
+      return "interrupted";
+  }
+  return "?";
+}
+
+int exit_code(TourOutcome outcome) {
+  switch (outcome) {
+    case TourOutcome::completed:
+      return 0;
+    case TourOutcome::completed_with_skips:
+      return 3;
+    case TourOutcome::interrupted:
+      return 130;
+    case TourOutcome::aborted:
+    case TourOutcome::running:
+      return 1;
+  }
+  return 1;
+}
+
+BehaviourInstances create_behaviours(const Machine& machine, const BehaviourCatalog& catalog,
+                                     const RunContext& run) {
+  BehaviourInstances out;
+  for (const StateSpec* leaf : machine.leaves()) {
+    try {
+      out[leaf->path] = catalog.create_behaviour(leaf->behaviour, leaf->params, run);
+    } catch (const std::exception& e) {
+      throw std::runtime_error("state " + leaf->path + ": " + e.what());
+    }
+    if (!out[leaf->path]) {
+      throw std::runtime_error("state " + leaf->path + ": kind \"" + leaf->behaviour +
+                               "\" made no behaviour");
+    }
+  }
+  return out;
+}
+
+Executor::Executor(Machine machine, BehaviourInstances behaviours,
+                   std::vector<ServiceInstance> services, RunContext& run, SteppedClock& clock,
+                   ExecutorOptions options)
+    : machine_(std::move(machine)),
+      behaviours_(std::move(behaviours)),
+      services_(std::move(services)),
+      run_(run),
+      clock_(clock),
+      options_(options) {
+  if (run_.mission == nullptr || run_.blackboard == nullptr) {
+    throw std::invalid_argument("Executor needs a mission and a blackboard in the RunContext");
+  }
+  if (run_.clock == nullptr) run_.clock = &clock_;
+  for (const StateSpec* leaf : machine_.leaves()) {
+    if (!behaviours_.count(leaf->path) || !behaviours_[leaf->path]) {
+      throw std::invalid_argument("no behaviour for state " + leaf->path);
+    }
+  }
+}
+
+std::size_t Executor::target_count() const { return run_.mission->targets.size(); }
+
+std::string Executor::active_state() const {
+  if (active_.empty() || !active_.back()->is_leaf()) return "";
+  return active_.back()->path;
+}
+
+void Executor::restore(std::vector<TargetRecord> done, std::optional<std::size_t> first_target) {
+  for (auto& r : done) {
+    done_.insert(r.index);
+    records_.push_back(std::move(r));
+  }
+  first_target_ = first_target;
+}
+
+Context Executor::make_context(const StateSpec* leaf) const {
+  Context ctx;
+  ctx.run = &run_;
+  if (current_target_) {
+    ctx.target = &run_.mission->targets[*current_target_];
+    ctx.target_index = *current_target_;
+    if (!run_.run_dir.empty()) ctx.target_dir = run_.run_dir / "targets" / ctx.target->id;
+  }
+  ctx.params = leaf != nullptr ? &leaf->params : nullptr;
+  ctx.cancel = &cancel_;
+  ctx.state_path = leaf != nullptr ? leaf->path : "";
+  return ctx;
+}
+
+void Executor::emit(EventType type, const StateSpec& state, const std::string& outcome,
+                    const std::string& message, const std::string& to) {
+  ExecutorEvent e;
+  e.t_s = clock_.now_s();
+  e.type = type;
+  e.state = state.path;
+  if (current_target_ && visit_state_ != nullptr &&
+      (state.path == visit_state_->path ||
+       state.path.compare(0, visit_state_->path.size() + 1, visit_state_->path + "/") == 0)) {
+    e.target = run_.mission->targets[*current_target_].id;
+  }
+  e.outcome = outcome;
+  e.message = message;
+  e.to = to;
+  for (ExecutorObserver* o : observers_) o->on_event(e);
+}
+
+void Executor::start_services() {
+  service_contexts_.reserve(services_.size());
+  for (auto& s : services_) {
+    service_contexts_.push_back(make_context(nullptr));
+    service_contexts_.back().state_path = "service/" + s.role;
+    service_contexts_.back().params = &s.params;
+  }
+  for (std::size_t i = 0; i < services_.size(); ++i) {
+    services_[i].service->start(service_contexts_[i]);
+  }
+}
+
+void Executor::start() {
+  if (started_) return;
+  started_ = true;
+  start_services();
+  enter(machine_.root());
+}
+
+void Executor::start_at(const std::string& state_path, std::size_t target_index) {
+  const StateSpec* state = machine_.find(state_path);
+  if (state == nullptr) throw std::invalid_argument("no state " + state_path);
+  if (target_index >= target_count() && state->enclosing_for_each() != nullptr) {
+    throw std::invalid_argument("no target " + std::to_string(target_index));
+  }
+  started_ = true;
+  start_services();
+  std::vector<const StateSpec*> chain;
+  for (const StateSpec* s = state; s != nullptr; s = s->parent) chain.insert(chain.begin(), s);
+  for (std::size_t i = 0; i + 1 < chain.size(); ++i) {
+    const StateSpec* s = chain[i];
+    if (s->for_each_target) {
+      first_target_ = target_index;
+      const std::size_t chosen = *choose_next_target();
+      current_target_ = chosen;
+      visit_state_ = s;
+      entries_.clear();
+      record_ = TargetRecord{};
+      record_.index = chosen;
+      record_.id = run_.mission->targets[chosen].id;
+      run_.blackboard->erase_prefix("target.");
+    }
+    active_.push_back(s);
+    ++entries_[s->path];
+    emit(EventType::enter, *s);
+  }
+  if (state->for_each_target) first_target_ = target_index;
+  enter(*state);
+}
+
+void Executor::enter(const StateSpec& state) {
+  if (finished_) return;
+  switch (state.type) {
+    case StateType::leaf:
+      enter_leaf(state);
+      return;
+    case StateType::final_state:
+      ++entries_[state.path];
+      emit(EventType::enter, state);
+      emit(EventType::exit, state);
+      complete_composite(*state.parent);
+      return;
+    case StateType::composite:
+      if (state.for_each_target) {
+        begin_visit(state);
+        return;
+      }
+      active_.push_back(&state);
+      ++entries_[state.path];
+      emit(EventType::enter, state);
+      enter(*state.child(state.initial));
+      return;
+  }
+}
+
+void Executor::enter_leaf(const StateSpec& state) {
+  active_.push_back(&state);
+  ++entries_[state.path];
+  emit(EventType::enter, state);
+  leaf_behaviour_ = behaviours_.at(state.path).get();
+  leaf_ctx_ = make_context(&state);
+  leaf_elapsed_s_ = 0.0;
+  try {
+    leaf_behaviour_->start(leaf_ctx_);
+  } catch (const std::exception& e) {
+    finish_leaf(Outcome{kOutcomeFailed, std::string("start failed: ") + e.what()});
+  }
+}
+
+std::optional<std::size_t> Executor::choose_next_target() {
+  const std::size_t n = target_count();
+  Blackboard& bb = *run_.blackboard;
+  if (bb.has(keys::kNextTargetIndex)) {
+    std::optional<long long> wanted;
+    try {
+      wanted = bb.get<long long>(keys::kNextTargetIndex);
+    } catch (const std::logic_error& e) {
+      if (run_.log != nullptr) run_.log->warning(e.what());
+    }
+    bb.erase(keys::kNextTargetIndex);
+    if (wanted && *wanted >= 0 && static_cast<std::size_t>(*wanted) < n &&
+        done_.count(static_cast<std::size_t>(*wanted)) == 0) {
+      return static_cast<std::size_t>(*wanted);
+    }
+  }
+  if (first_target_) {
+    const std::size_t first = *first_target_;
+    first_target_.reset();
+    if (first < n && done_.count(first) == 0) return first;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (done_.count(i) == 0) return i;
+  }
+  return std::nullopt;
+}
+
+void Executor::begin_visit(const StateSpec& for_each) {
+  const auto next = choose_next_target();
+  if (!next) {
+    composite_done(for_each);
+    return;
+  }
+  current_target_ = *next;
+  visit_state_ = &for_each;
+  entries_.clear();
+  run_.blackboard->erase_prefix("target.");
+  record_ = TargetRecord{};
+  record_.index = *next;
+  record_.id = run_.mission->targets[*next].id;
+  if (!run_.run_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(run_.run_dir / "targets" / record_.id, ec);
+    if (ec && run_.log != nullptr) {
+      run_.log->warning("cannot create target directory: " + ec.message());
+    }
+  }
+  active_.push_back(&for_each);
+  ++entries_[for_each.path];
+  emit(EventType::enter, for_each);
+  enter(*for_each.child(for_each.initial));
+}
+
+// Stops the active leaf and pops it; measurements of the visit are taken here.
+void Executor::leave_leaf(const Outcome& outcome) {
+  const StateSpec* leaf = active_.back();
+  emit(EventType::outcome, *leaf, outcome.name, outcome.message);
+  try {
+    leaf_behaviour_->stop(leaf_ctx_);
+  } catch (const std::exception& e) {
+    if (run_.log != nullptr) run_.log->warning(leaf->path + ": stop failed: " + e.what());
+  }
+  if (current_target_) measure_on_exit(leaf->behaviour, leaf_ctx_, record_.measurements);
+  emit(EventType::exit, *leaf);
+  active_.pop_back();
+  leaf_behaviour_ = nullptr;
+}
+
+void Executor::finish_leaf(Outcome outcome) {
+  const StateSpec* leaf = active_.back();
+  const bool known = outcome.name == kOutcomeFailed || leaf->transition(outcome.name) != nullptr;
+  if (!known) {
+    outcome = Outcome{kOutcomeFailed, "behaviour returned an outcome it does not declare: \"" +
+                                          outcome.name + "\"" +
+                                          (outcome.message.empty() ? "" : " (" + outcome.message + ")")};
+  }
+  leave_leaf(outcome);
+  const TransitionSpec* t = leaf->transition(outcome.name);
+  const std::string reason =
+      outcome.name + (outcome.message.empty() ? "" : ": " + outcome.message);
+  if (t == nullptr) {
+    abort_tour(leaf->path + " ended with \"" + outcome.name + "\", which has no transition (" +
+               reason + ")");
+    return;
+  }
+  follow(*leaf, *t, reason);
+}
+
+void Executor::follow(const StateSpec& from, const TransitionSpec& transition,
+                      const std::string& reason) {
+  std::string chosen;
+  const StateSpec* next = nullptr;
+  for (const auto& target : transition.targets) {
+    if (is_reserved_target(target)) {
+      chosen = target;
+      break;
+    }
+    const StateSpec* s = from.parent->child(target);
+    if (s == nullptr) continue;
+    const auto it = entries_.find(s->path);
+    const int entries = it == entries_.end() ? 0 : it->second;
+    if (entries <= s->retries) {
+      chosen = target;
+      next = s;
+      break;
+    }
+  }
+  std::string why = reason;
+  if (chosen.empty()) {
+    chosen = from.parent->enclosing_for_each() != nullptr ? kSkipTarget : kAbort;
+    std::string names;
+    for (const auto& t : transition.targets) names += (names.empty() ? "" : ", ") + t;
+    why = "retries exhausted (" + names + ") after " + reason;
+  }
+  ++transition_count_;
+  emit(EventType::transition, from, transition.outcome, "", next != nullptr ? next->path : chosen);
+  if (next != nullptr) {
+    enter(*next);
+  } else if (chosen == kSkipTarget) {
+    end_visit("skipped", why);
+  } else if (chosen == kAbort) {
+    abort_tour(from.path + ": " + why);
+  } else {
+    complete_composite(*from.parent);
+  }
+}
+
+void Executor::complete_composite(const StateSpec& composite) {
+  if (composite.for_each_target) {
+    end_visit("projected", "");
+    return;
+  }
+  unwind_to(&composite);
+  active_.pop_back();
+  emit(EventType::exit, composite);
+  composite_done(composite);
+}
+
+void Executor::composite_done(const StateSpec& composite) {
+  emit(EventType::outcome, composite, kOutcomeDone);
+  if (composite.parent == nullptr) {
+    const bool all_projected = std::all_of(records_.begin(), records_.end(), [](const auto& r) {
+      return r.outcome == "projected";
+    });
+    finish_tour(all_projected ? TourOutcome::completed : TourOutcome::completed_with_skips);
+    return;
+  }
+  const TransitionSpec* t = composite.transition(kOutcomeDone);
+  if (t == nullptr) {
+    abort_tour(composite.path + " completed but has no transition for \"done\"");
+    return;
+  }
+  follow(composite, *t, kOutcomeDone);
+}
+
+// Pops (with exit events) every active state above `keep`.
+void Executor::unwind_to(const StateSpec* keep) {
+  while (!active_.empty() && active_.back() != keep) {
+    const StateSpec* s = active_.back();
+    active_.pop_back();
+    emit(EventType::exit, *s);
+  }
+}
+
+void Executor::end_visit(const std::string& outcome, const std::string& reason) {
+  const StateSpec* for_each = visit_state_;
+  unwind_to(for_each);
+  record_.outcome = outcome;
+  record_.reason = reason;
+  record_.retries = 0;
+  for (const auto& kv : entries_) {
+    if (kv.first != for_each->path) record_.retries += std::max(0, kv.second - 1);
+  }
+  records_.push_back(record_);
+  done_.insert(record_.index);
+  active_.pop_back();
+  emit(EventType::exit, *for_each);
+  current_target_.reset();
+  visit_state_ = nullptr;
+  for (ExecutorObserver* o : observers_) o->on_target_done(records_.back());
+  begin_visit(*for_each);
+}
+
+void Executor::abort_tour(const std::string& reason) {
+  abort_reason_ = reason;
+  if (current_target_ && visit_state_ != nullptr) {
+    unwind_to(visit_state_);
+    record_.outcome = "failed";
+    record_.reason = reason;
+    for (const auto& kv : entries_) {
+      if (kv.first != visit_state_->path) record_.retries += std::max(0, kv.second - 1);
+    }
+    records_.push_back(record_);
+    done_.insert(record_.index);
+    active_.pop_back();
+    emit(EventType::exit, *visit_state_);
+    current_target_.reset();
+    visit_state_ = nullptr;
+    for (ExecutorObserver* o : observers_) o->on_target_done(records_.back());
+  }
+  unwind_to(nullptr);
+  finish_tour(TourOutcome::aborted);
+}
+
+// The visit in progress is not recorded: a resume restarts it from its first state.
+void Executor::interrupt() {
+  unwind_to(nullptr);
+  finish_tour(TourOutcome::interrupted);
+}
+
+void Executor::finish_tour(TourOutcome outcome) {
+  if (finished_) return;
+  finished_ = true;
+  outcome_ = outcome;
+  for (std::size_t i = 0; i < services_.size() && i < service_contexts_.size(); ++i) {
+    try {
+      services_[i].service->stop(service_contexts_[i]);
+    } catch (const std::exception& e) {
+      if (run_.log != nullptr) run_.log->warning("service " + services_[i].role + ": " + e.what());
+    }
+  }
+  if (run_.drivers != nullptr) {
+    for (const auto& d : run_.drivers->all()) d->safe_stop();
+  }
+}
+
+bool Executor::step() {
+  if (!started_) start();
+  if (finished_) return false;
+  clock_.advance(options_.tick_s);
+  const double now_s = clock_.now_s();
+  driver_failure_.clear();
+  if (run_.drivers != nullptr) {
+    for (const auto& d : run_.drivers->all()) {
+      try {
+        d->update(now_s);
+      } catch (const std::exception& e) {
+        driver_failure_ = std::string("driver update failed: ") + e.what();
+      }
+    }
+  }
+  for (std::size_t i = 0; i < services_.size(); ++i) {
+    try {
+      services_[i].service->update(service_contexts_[i]);
+    } catch (const std::exception& e) {
+      driver_failure_ = "service " + services_[i].role + " failed: " + e.what();
+    }
+  }
+  if (paused_ || leaf_behaviour_ == nullptr) return !finished_;
+
+  if (cancel_requested_ && !cancel_.requested()) {
+    cancel_.request();
+    cancel_started_s_ = now_s;
+  }
+  std::optional<Outcome> outcome;
+  try {
+    outcome = leaf_behaviour_->tick(leaf_ctx_);
+  } catch (const std::exception& e) {
+    outcome = Outcome{kOutcomeFailed, e.what()};
+  } catch (...) {
+    outcome = Outcome{kOutcomeFailed, "unknown exception"};
+  }
+  leaf_elapsed_s_ += options_.tick_s;
+
+  if (cancel_.requested()) {
+    if (outcome) {
+      leave_leaf(*outcome);
+      interrupt();
+    } else if (now_s - cancel_started_s_ >= options_.cancel_grace_s - 1e-9) {
+      const StateSpec* leaf = active_.back();
+      ignored_cancel_.push_back(leaf->path + " (" + leaf->behaviour + ")");
+      if (run_.log != nullptr) {
+        run_.log->warning("behaviour " + leaf->behaviour + " in " + leaf->path +
+                          " ignored the cancel; stopped after the grace period");
+      }
+      leave_leaf(Outcome{kOutcomeCancelled, "ignored the cancel; stopped after " +
+                                                std::to_string(options_.cancel_grace_s) + " s"});
+      interrupt();
+    }
+    return !finished_;
+  }
+
+  const StateSpec* leaf = active_.back();
+  if (!outcome && !driver_failure_.empty()) outcome = Outcome{kOutcomeFailed, driver_failure_};
+  if (!outcome && leaf->timeout_s > 0 && leaf_elapsed_s_ >= leaf->timeout_s - 1e-9) {
+    outcome = Outcome{kOutcomeTimeout, "no outcome within " + Json(leaf->timeout_s).dump() + " s"};
+  }
+  if (outcome) {
+    if (outcome->name == kOutcomeCancelled) {
+      outcome = Outcome{kOutcomeFailed, "returned \"cancelled\" without a cancel request"};
+    }
+    finish_leaf(std::move(*outcome));
+  }
+  return !finished_;
+}
+
+TourOutcome Executor::run_to_end() {
+  while (step()) {
+  }
+  return outcome_;
+}
+
+void Executor::pause() {
+  if (paused_ || finished_ || leaf_behaviour_ == nullptr) return;
+  paused_ = true;
+  leaf_behaviour_->pause(leaf_ctx_);
+}
+
+void Executor::resume() {
+  if (!paused_) return;
+  paused_ = false;
+  if (leaf_behaviour_ != nullptr) leaf_behaviour_->resume(leaf_ctx_);
+}
+
+void Executor::request_cancel() {
+  if (finished_) return;
+  resume();
+  cancel_requested_ = true;
+  if (!started_) {
+    started_ = true;
+    finish_tour(TourOutcome::interrupted);
+  }
+}
+
+}  // namespace projtour

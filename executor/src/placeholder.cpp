@@ -1,2 +1,0 @@
-// The executor library grows here.
-namespace projtour {}

@@ -1,0 +1,108 @@
+#include "scripted_behaviour.hpp"
+
+#include <sstream>
+#include <stdexcept>
+
+#include "projtour/blackboard_keys.hpp"
+#include "projtour/context.hpp"
+
+namespace projtour::testing {
+
+namespace {
+
+std::vector<std::string> split_outcomes(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    const auto first = item.find_first_not_of(" \t");
+    const auto last = item.find_last_not_of(" \t");
+    out.push_back(first == std::string::npos ? "" : item.substr(first, last - first + 1));
+  }
+  return out;
+}
+
+}  // namespace
+
+const projtour_param_desc kScriptedParams[6] = {
+    {"outcomes", "string", "succeeded",
+     "comma-separated outcomes of successive runs; the last repeats"},
+    {"ticks", "integer", "1", "ticks each run lasts (the outcome comes on the last)"},
+    {"throw_on", "integer", "0", "run number whose first tick throws (0 = never)"},
+    {"ignore_cancel", "boolean", "false", "keep running after a cancel request"},
+    {"message", "string", "", "message attached to each outcome"},
+    {"next_target", "integer", "-1",
+     "on succeeded, ask the for_each to visit this target index next (-1 = no preference)"},
+};
+
+const std::vector<ParamSpec>& scripted_param_specs() {
+  static const std::vector<ParamSpec> kSpecs = [] {
+    std::vector<ParamSpec> specs;
+    for (const auto& d : kScriptedParams) {
+      ParamSpec spec;
+      spec.name = d.name;
+      param_type_from_string(d.type, spec.type);
+      spec.default_value = d.default_value;
+      spec.description = d.description;
+      specs.push_back(spec);
+    }
+    return specs;
+  }();
+  return kSpecs;
+}
+
+std::string validate_script(const Params& params) {
+  if (params.integer("ticks") < 1) return "ticks must be at least 1";
+  if (params.integer("throw_on") < 0) return "throw_on must be >= 0";
+  for (const auto& o : split_outcomes(params.string("outcomes"))) {
+    if (o.empty()) return "outcomes has an empty entry";
+  }
+  return "";
+}
+
+ScriptedBehaviour::ScriptedBehaviour(const Params& params, const RunContext&)
+    : outcomes_(split_outcomes(params.string("outcomes"))),
+      ticks_(params.integer("ticks")),
+      throw_on_(params.integer("throw_on")),
+      ignore_cancel_(params.boolean("ignore_cancel")),
+      message_(params.string("message")),
+      next_target_(params.integer("next_target")) {
+  const std::string why = validate_script(params);
+  if (!why.empty()) throw std::invalid_argument(why);
+}
+
+void ScriptedBehaviour::start(Context&) {
+  ++runs_;
+  ticks_this_run_ = 0;
+  paused_ = false;
+}
+
+std::optional<Outcome> ScriptedBehaviour::tick(Context& ctx) {
+  ++total_ticks_;
+  if (paused_) throw std::logic_error("ticked while paused");
+  if (throw_on_ == runs_ && ticks_this_run_ == 0) {
+    ++ticks_this_run_;
+    throw std::runtime_error("scripted failure on run " + std::to_string(runs_));
+  }
+  if (ctx.cancel_requested() && !ignore_cancel_) return Outcome{kOutcomeCancelled, "cancelled"};
+  if (++ticks_this_run_ < ticks_) return std::nullopt;
+  const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(runs_ - 1), outcomes_.size() - 1);
+  Outcome outcome{outcomes_[k], message_};
+  if (outcome.name == "succeeded" && next_target_ >= 0) {
+    ctx.blackboard().set(keys::kNextTargetIndex, next_target_);
+  }
+  if (ignore_cancel_ && ctx.cancel_requested()) return std::nullopt;
+  return outcome;
+}
+
+void ScriptedBehaviour::stop(Context&) { ++stops_; }
+void ScriptedBehaviour::pause(Context&) {
+  ++pauses_;
+  paused_ = true;
+}
+void ScriptedBehaviour::resume(Context&) {
+  ++resumes_;
+  paused_ = false;
+}
+
+}  // namespace projtour::testing

@@ -1,0 +1,423 @@
+// The loader: what a good plugin registers, how each bad file is refused, object lifetimes and
+// the search path.
+#include <dlfcn.h>
+#include <gtest/gtest.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <fstream>
+
+#include "fixture_support.hpp"
+#include "projtour/plugin_loader.hpp"
+
+namespace fs = std::filesystem;
+using projtour::Family;
+using projtour::KindInfo;
+using projtour::ParamType;
+using projtour::PluginError;
+using projtour::PluginRegistry;
+using projtour::testing::fixture;
+using projtour::testing::TempDir;
+using projtour::testing::TestRun;
+
+namespace {
+
+// The message load_library throws for `file`, or "" when it loads.
+std::string load_error(PluginRegistry& registry, const fs::path& file) {
+  try {
+    registry.load_library(file);
+  } catch (const PluginError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+bool is_loaded(const fs::path& file) {
+  void* handle = dlopen(fs::canonical(file).c_str(), RTLD_NOW | RTLD_NOLOAD);
+  if (handle == nullptr) return false;
+  dlclose(handle);
+  return true;
+}
+
+projtour::Params wait_params(const PluginRegistry& registry, const std::string& yaml) {
+  projtour::Diagnostics diag;
+  auto params =
+      projtour::testing::params_from_yaml(registry.require("fixture_wait").params, yaml, diag);
+  EXPECT_FALSE(diag.has_errors()) << diag.format();
+  return params;
+}
+
+class ScopedEnv {
+ public:
+  ScopedEnv(const char* name, const char* value) : name_(name) {
+    if (const char* old = std::getenv(name)) old_ = old;
+    if (value != nullptr) {
+      ::setenv(name, value, 1);
+    } else {
+      ::unsetenv(name);
+    }
+  }
+  ~ScopedEnv() {
+    if (old_) {
+      ::setenv(name_.c_str(), old_->c_str(), 1);
+    } else {
+      ::unsetenv(name_.c_str());
+    }
+  }
+
+ private:
+  std::string name_;
+  std::optional<std::string> old_;
+};
+
+TEST(PluginLoader, GoodPluginRegistersEveryKind) {
+  PluginRegistry registry;
+  registry.load_library(fixture("pt_fixture_good"));
+
+  const auto kinds = registry.kinds();
+  ASSERT_EQ(kinds.size(), 3u);
+  EXPECT_EQ(kinds[0]->name, "fixture_locator");
+  EXPECT_EQ(kinds[1]->name, "fixture_projector");
+  EXPECT_EQ(kinds[2]->name, "fixture_wait");
+
+  const KindInfo& wait = registry.require("fixture_wait");
+  EXPECT_EQ(wait.family, Family::behaviour);
+  EXPECT_EQ(wait.interface, "");
+  EXPECT_EQ(wait.description, "waits, then succeeds");
+  EXPECT_EQ(wait.plugin_name, "fixture_good");
+  EXPECT_EQ(wait.plugin_version, "1.2.3");
+  EXPECT_EQ(wait.library, fs::canonical(fixture("pt_fixture_good")));
+  ASSERT_EQ(wait.params.size(), 5u);
+  EXPECT_EQ(wait.params[0].name, "duration_s");
+  EXPECT_EQ(wait.params[0].type, ParamType::number);
+  EXPECT_EQ(wait.params[0].default_value, "2.5");
+  EXPECT_EQ(wait.params[0].description, "mission time to wait");
+  EXPECT_EQ(wait.params[1].type, ParamType::integer);
+  EXPECT_EQ(wait.params[2].type, ParamType::boolean);
+  EXPECT_EQ(wait.params[3].type, ParamType::string);
+  EXPECT_FALSE(wait.params[3].required());
+  EXPECT_TRUE(wait.params[4].required());
+  EXPECT_EQ(wait.outcomes, (std::vector<std::string>{"succeeded", "timed_out"}));
+  EXPECT_TRUE(wait.declares_outcome("timed_out"));
+  EXPECT_FALSE(wait.declares_outcome("failed"));
+
+  EXPECT_EQ(registry.require("fixture_projector").family, Family::driver);
+  EXPECT_EQ(registry.require("fixture_projector").interface, "projector");
+  EXPECT_EQ(registry.require("fixture_locator").family, Family::service);
+  EXPECT_EQ(registry.require("fixture_locator").interface, "localization");
+}
+
+TEST(PluginLoader, LoadingTheSameFileTwiceIsHarmless) {
+  PluginRegistry registry;
+  registry.load_library(fixture("pt_fixture_good"));
+  EXPECT_NO_THROW(registry.load_library(fixture("pt_fixture_good")));
+  EXPECT_EQ(registry.kinds().size(), 3u);
+}
+
+TEST(PluginLoader, MissingFileIsNamed) {
+  PluginRegistry registry;
+  const std::string error = load_error(registry, "/nonexistent/libnothing.so");
+  EXPECT_EQ(error, "/nonexistent/libnothing.so: no such file");
+}
+
+TEST(PluginLoader, UnloadableFileCarriesDlerror) {
+  TempDir dir;
+  const fs::path file = dir.path() / "libgarbage.so";
+  std::ofstream(file) << "this is not an ELF file\n";
+  PluginRegistry registry;
+  const std::string error = load_error(registry, file);
+  EXPECT_EQ(error.rfind(file.string() + ": cannot load: ", 0), 0u) << error;
+  // dlerror's own words follow: the reason the dynamic linker refused it.
+  EXPECT_NE(error.find("invalid ELF header"), std::string::npos) << error;
+}
+
+TEST(PluginLoader, SharedObjectWithoutEntryPointIsNotAPlugin) {
+  PluginRegistry registry;
+  const fs::path file = fixture("pt_fixture_not_plugin");
+  EXPECT_EQ(load_error(registry, file),
+            file.string() + ": not a projtour plugin (no projtour_plugin_descriptor)");
+  EXPECT_TRUE(registry.kinds().empty());
+}
+
+TEST(PluginLoader, AbiVersionIsCheckedBeforeAnythingElse) {
+  // The fixture's other fields are null: reading them first would report a malformed plugin.
+  PluginRegistry registry;
+  const fs::path file = fixture("pt_fixture_abi999");
+  EXPECT_EQ(load_error(registry, file), file.string() + ": ABI version 999, this projtour needs 1");
+}
+
+struct MalformedCase {
+  int number;
+  std::string reason;
+};
+
+class MalformedDescriptor : public ::testing::TestWithParam<MalformedCase> {};
+
+TEST_P(MalformedDescriptor, IsRefusedWithTheReason) {
+  const fs::path file = fixture("pt_fixture_malformed_" + std::to_string(GetParam().number));
+  PluginRegistry registry;
+  EXPECT_EQ(load_error(registry, file), file.string() + ": " + GetParam().reason);
+  EXPECT_EQ(registry.find("fixture_malformed"), nullptr);
+  EXPECT_TRUE(registry.kinds().empty());
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    PluginLoader, MalformedDescriptor,
+    ::testing::Values(
+        MalformedCase{1, "kind 0: null or empty name"},
+        MalformedCase{2,
+                      "kind \"fixture_malformed\": unknown family 7 (expected 1 behaviour, 2 "
+                      "driver or 3 service)"},
+        MalformedCase{3,
+                      "kind \"fixture_malformed\": parameter \"tolerance_m\": unknown type "
+                      "\"float\" (expected number, integer, boolean or string)"},
+        MalformedCase{4,
+                      "kind \"fixture_malformed\": driver interface \"hoverboard\" is not one of "
+                      "base, laser, pan_tilt, depth_camera, projector"},
+        MalformedCase{5, "kind \"fixture_malformed\": null create function"},
+        MalformedCase{6,
+                      "kind \"fixture_malformed\": parameter \"tolerance_m\": default \"north\" "
+                      "is not a number"}));
+
+TEST(PluginLoader, DuplicateKindNamesBothFiles) {
+  PluginRegistry registry;
+  const fs::path a = fixture("pt_fixture_dup_a");
+  const fs::path b = fixture("pt_fixture_dup_b");
+  registry.load_library(a);
+  EXPECT_EQ(load_error(registry, b), b.string() + ": kind \"fixture_dup\" is already provided by " +
+                                         fs::canonical(a).string() + " (plugin \"fixture_dup_a\")");
+  // The first provider keeps the kind.
+  EXPECT_EQ(registry.require("fixture_dup").plugin_name, "fixture_dup_a");
+}
+
+TEST(PluginLoader, LoadDirectoriesCollectsEveryFailureInFileOrder) {
+  PluginRegistry registry;
+  const auto failures =
+      registry.load_directories({PROJTOUR_FIXTURE_DIR, "/nonexistent/projtour/plugins"});
+  const std::string dir = PROJTOUR_FIXTURE_DIR;
+  std::vector<std::string> failed_files;
+  for (const auto& f : failures) failed_files.push_back(f.substr(0, f.find(".so: ") + 3));
+  const std::vector<std::string> expected = {
+      dir + "/libpt_fixture_abi999.so",      dir + "/libpt_fixture_dup_b.so",
+      dir + "/libpt_fixture_malformed_1.so", dir + "/libpt_fixture_malformed_2.so",
+      dir + "/libpt_fixture_malformed_3.so", dir + "/libpt_fixture_malformed_4.so",
+      dir + "/libpt_fixture_malformed_5.so", dir + "/libpt_fixture_malformed_6.so",
+      dir + "/libpt_fixture_not_plugin.so"};
+  EXPECT_EQ(failed_files, expected);
+
+  std::vector<std::string> names;
+  for (const KindInfo* kind : registry.kinds()) names.push_back(kind->name);
+  EXPECT_EQ(names, (std::vector<std::string>{"fixture_create_throws", "fixture_dup", "fixture_liar",
+                                             "fixture_locator", "fixture_projector",
+                                             "fixture_tick_throws", "fixture_wait"}));
+  EXPECT_EQ(registry.require("fixture_dup").plugin_name, "fixture_dup_a");
+}
+
+TEST(PluginLoader, EarlierDirectoryShadowsSameFileName) {
+  TempDir first;
+  TempDir second;
+  for (const auto* dir : {&first, &second}) {
+    fs::copy_file(fixture("pt_fixture_good"), dir->path() / "libpt_fixture_good.so");
+  }
+  PluginRegistry registry;
+  EXPECT_TRUE(registry.load_directories({first.path(), second.path()}).empty());
+  EXPECT_EQ(registry.require("fixture_wait").library.parent_path(), fs::canonical(first.path()));
+}
+
+TEST(PluginLoader, RequireSuggestsTheClosestKind) {
+  PluginRegistry registry;
+  registry.load_library(fixture("pt_fixture_good"));
+  try {
+    registry.require("fixture_wiat");
+    FAIL() << "no throw";
+  } catch (const PluginError& e) {
+    EXPECT_STREQ(e.what(), "unknown plugin kind \"fixture_wiat\" (did you mean \"fixture_wait\"?)");
+  }
+  EXPECT_THROW(registry.require("navigate"), PluginError);
+  EXPECT_EQ(registry.find("navigate"), nullptr);
+}
+
+TEST(PluginLoader, BehaviourRunsOnMissionTime) {
+  PluginRegistry registry;
+  registry.load_library(fixture("pt_fixture_good"));
+  const auto params = wait_params(registry, "{gain: 1.0, duration_s: 2.0}");
+  TestRun run;
+  auto behaviour = registry.create_behaviour("fixture_wait", params, run.run);
+  ASSERT_NE(behaviour, nullptr);
+  auto ctx = run.context(params);
+  run.clock.set(10.0);
+  behaviour->start(ctx);
+  run.clock.advance(1.9);
+  EXPECT_FALSE(behaviour->tick(ctx).has_value());
+  run.clock.advance(0.2);
+  const auto outcome = behaviour->tick(ctx);
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_EQ(outcome->name, "succeeded");
+  EXPECT_EQ(outcome->message, "hello");
+}
+
+TEST(PluginLoader, LibraryStaysLoadedWhileAnObjectLives) {
+  const fs::path file = fixture("pt_fixture_good");
+  ASSERT_FALSE(is_loaded(file));
+  TestRun run;
+  std::shared_ptr<projtour::Behaviour> behaviour;
+  projtour::Params params;
+  {
+    auto registry = std::make_unique<PluginRegistry>();
+    registry->load_library(file);
+    params = wait_params(*registry, "{gain: 1.0, duration_s: 0.0, fail_on_timeout: true}");
+    behaviour = registry->create_behaviour("fixture_wait", params, run.run);
+  }
+  // The registry is gone; the object's code and vtable must still be there.
+  EXPECT_TRUE(is_loaded(file));
+  auto ctx = run.context(params);
+  behaviour->start(ctx);
+  const auto outcome = behaviour->tick(ctx);
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_EQ(outcome->name, "timed_out");
+  behaviour.reset();
+  EXPECT_FALSE(is_loaded(file));
+}
+
+TEST(PluginLoader, CreateThatThrowsNamesKindLibraryAndReason) {
+  PluginRegistry registry;
+  registry.load_library(fixture("pt_fixture_throwing"));
+  TestRun run;
+  try {
+    registry.create_behaviour("fixture_create_throws", projtour::Params(), run.run);
+    FAIL() << "no throw";
+  } catch (const PluginError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              fs::canonical(fixture("pt_fixture_throwing")).string() +
+                  ": kind \"fixture_create_throws\": create failed: calibration file missing");
+  }
+}
+
+TEST(PluginLoader, TickThatThrowsReachesTheCaller) {
+  PluginRegistry registry;
+  registry.load_library(fixture("pt_fixture_throwing"));
+  const auto params = projtour::Params::defaults(registry.require("fixture_tick_throws").params);
+  TestRun run;
+  auto behaviour = registry.create_behaviour("fixture_tick_throws", params, run.run);
+  auto ctx = run.context(params);
+  behaviour->start(ctx);
+  EXPECT_THROW(
+      {
+        try {
+          behaviour->tick(ctx);
+        } catch (const std::runtime_error& e) {
+          EXPECT_STREQ(e.what(), "fixture tick failure");
+          throw;
+        }
+      },
+      std::runtime_error);
+}
+
+TEST(PluginLoader, FamilyMismatchIsRefused) {
+  PluginRegistry registry;
+  registry.load_library(fixture("pt_fixture_good"));
+  TestRun run;
+  const std::string library = fs::canonical(fixture("pt_fixture_good")).string();
+  try {
+    registry.create_driver("fixture_wait", projtour::Params(), run.run);
+    FAIL() << "no throw";
+  } catch (const PluginError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              library + ": kind \"fixture_wait\": is a behaviour, not a driver");
+  }
+  EXPECT_THROW(registry.create_behaviour("fixture_projector", projtour::Params(), run.run),
+               PluginError);
+  EXPECT_THROW(registry.create_service("fixture_projector", projtour::Params(), run.run),
+               PluginError);
+}
+
+TEST(PluginLoader, DriverMustImplementItsDeclaredInterface) {
+  PluginRegistry registry;
+  registry.load_library(fixture("pt_fixture_liar"));
+  TestRun run;
+  const auto params = projtour::Params::defaults(registry.require("fixture_liar").params);
+  try {
+    registry.create_driver("fixture_liar", params, run.run);
+    FAIL() << "no throw";
+  } catch (const PluginError& e) {
+    EXPECT_NE(std::string(e.what()).find("kind \"fixture_liar\": declares interface \"base\" but "
+                                         "its object does not implement it"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(PluginLoader, DriverDowncastsToItsInterface) {
+  PluginRegistry registry;
+  registry.load_library(fixture("pt_fixture_good"));
+  TestRun run;
+  const auto params = projtour::Params::defaults(registry.require("fixture_projector").params);
+  auto driver = registry.create_driver("fixture_projector", params, run.run);
+  auto projector = std::dynamic_pointer_cast<projtour::ProjectorDriver>(driver);
+  ASSERT_NE(projector, nullptr);
+  EXPECT_EQ(std::dynamic_pointer_cast<projtour::BaseDriver>(driver), nullptr);
+  EXPECT_TRUE(projector->is_blank());
+}
+
+TEST(PluginLoader, ServiceIsCreatedAndUpdated) {
+  PluginRegistry registry;
+  registry.load_library(fixture("pt_fixture_good"));
+  TestRun run;
+  const auto params = projtour::Params::defaults(registry.require("fixture_locator").params);
+  auto service = registry.create_service("fixture_locator", params, run.run);
+  ASSERT_NE(service, nullptr);
+  auto ctx = run.context(params);
+  service->start(ctx);
+  EXPECT_NO_THROW(service->update(ctx));
+}
+
+TEST(PluginLoader, KindValidatorRunsOnValues) {
+  PluginRegistry registry;
+  registry.load_library(fixture("pt_fixture_good"));
+  EXPECT_EQ(registry.validate_params("fixture_wait", wait_params(registry, "{gain: 1}")), "");
+  EXPECT_EQ(
+      registry.validate_params("fixture_wait", wait_params(registry, "{gain: 1, repeats: 0}")),
+      "repeats must be at least 1");
+  // No validator: always fine.
+  EXPECT_EQ(registry.validate_params("fixture_projector", projtour::Params()), "");
+}
+
+TEST(PluginSearchPath, CliThenEnvironmentThenBuildThenInstall) {
+  ScopedEnv env("PROJTOUR_PLUGIN_PATH", "/env/a::/env/b:");
+  const auto dirs = PluginRegistry::search_path({"/cli/x", "/cli/y/"});
+  ASSERT_GE(dirs.size(), 6u);
+  const std::vector<fs::path> head(dirs.begin(), dirs.begin() + 6);
+  EXPECT_EQ(head, (std::vector<fs::path>{"/cli/x", "/cli/y/", "/env/a", "/env/b",
+                                         PROJTOUR_PLUGIN_BUILD_DIR, PROJTOUR_PLUGIN_INSTALL_DIR}));
+  for (const auto& dir : dirs) {
+    EXPECT_FALSE(dir.empty());
+    EXPECT_NE(dir, fs::path("."));
+  }
+}
+
+TEST(PluginSearchPath, CurrentDirectoryIsNeverImplied) {
+  TempDir cwd;
+  fs::copy_file(fixture("pt_fixture_good"), cwd.path() / "libpt_fixture_good.so");
+  const fs::path old_cwd = fs::current_path();
+  fs::current_path(cwd.path());
+  ScopedEnv env("PROJTOUR_PLUGIN_PATH", ":");
+  const auto dirs = PluginRegistry::search_path({});
+  PluginRegistry registry;
+  registry.load_directories(dirs);
+  fs::current_path(old_cwd);
+  for (const auto& dir : dirs) EXPECT_TRUE(dir.is_absolute()) << dir;
+  EXPECT_EQ(registry.find("fixture_wait"), nullptr);
+}
+
+TEST(PluginSearchPath, NamedCurrentDirectoryIsSearched) {
+  TempDir cwd;
+  fs::copy_file(fixture("pt_fixture_good"), cwd.path() / "libpt_fixture_good.so");
+  const fs::path old_cwd = fs::current_path();
+  fs::current_path(cwd.path());
+  PluginRegistry registry;
+  registry.load_directories(PluginRegistry::search_path({"."}));
+  fs::current_path(old_cwd);
+  EXPECT_NE(registry.find("fixture_wait"), nullptr);
+}
+
+}  // namespace
