@@ -141,7 +141,8 @@ std::optional<PluginInstanceSpec> read_plugin_instance(const YamlField& field) {
   if (!kind_text || !params_ok) return std::nullopt;
   PluginInstanceSpec spec;
   spec.kind = *kind_text;
-  if (params.defined()) spec.params = params.node();
+  // Absent params stay Undefined (a default Node is Null, which would read as "params: ~").
+  spec.params = params.defined() ? params.node() : YAML::Node(YAML::NodeType::Undefined);
   spec.params_path = params.path();
   spec.mark = params.mark();
   return spec;

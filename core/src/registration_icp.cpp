@@ -17,7 +17,8 @@ std::vector<IcpStage> IcpOptions::default_stages() {
   // Coarse levels see the whole target in few pixels, and their window lets a model point find
   // its surface several centimetres away; the fine levels then settle on the noise floor.
   return {
-      {3, 300, 3, 0.12, 12},
+      {3, 300, 3, 0.15, 8, true},
+      {3, 300, 3, 0.10, 8},
       {2, 600, 2, 0.05, 8},
       {1, 1200, 1, 0.02, 6},
       {0, 2500, 0, 0.01, 5},
@@ -218,24 +219,53 @@ Eigen::Isometry3d apply_twist(const Eigen::Matrix<double, 6, 1>& xi, const Eigen
 // the sensor noise, adjacent at the coarse levels where averaging already smoothed it.
 int normal_step(const Level& level) { return level.scale == 1 ? 2 : 1; }
 
+// The model's own depth image at 1/4 resolution (every model point facing the camera splatted
+// into its cell), so points hidden behind another part of the model (the ears, the far flank)
+// count neither for nor against a pose.
+std::vector<float> model_depth_buffer(const IcpModel& model, const Level& grid,
+                                      const Projector& projector, const Eigen::Matrix3f& R,
+                                      const Eigen::Vector3f& t) {
+  std::vector<float> z_buffer(static_cast<std::size_t>(grid.width) * grid.height,
+                              std::numeric_limits<float>::infinity());
+  for (std::size_t k = 0; k < model.points().size(); ++k) {
+    const Eigen::Vector3f p = R * model.points()[k] + t;
+    if ((R * model.normals()[k]).dot(p - projector.origin()) >= 0.0f) continue;
+    int i, j;
+    if (!projector.pixel(p, grid, i, j)) continue;
+    float& z = z_buffer[static_cast<std::size_t>(j) * grid.width + i];
+    z = std::min(z, p.z() - projector.origin().z());
+  }
+  return z_buffer;
+}
+
 void measure_quality(const IcpModel& model, const Level& level, const Projector& projector,
                      const Eigen::Isometry3d& T, const IcpOptions& options,
                      RegistrationResult& result) {
   const Eigen::Matrix3f R = T.linear().cast<float>();
   const Eigen::Vector3f t = T.translation().cast<float>();
+  Level grid;  // geometry only
+  grid.scale = level.scale * 4;
+  grid.u0 = level.u0 >> 2;
+  grid.v0 = level.v0 >> 2;
+  grid.width = ((level.u0 + level.width + 3) >> 2) - grid.u0;
+  grid.height = ((level.v0 + level.height + 3) >> 2) - grid.v0;
+  const std::vector<float> z_buffer = model_depth_buffer(model, grid, projector, R, t);
   const std::size_t n_model = std::min<std::size_t>(
       model.points().size(),
       options.stages.empty() ? model.points().size()
                              : static_cast<std::size_t>(options.stages.back().max_model_points));
   const float inlier_m = static_cast<float>(options.inlier_distance_m);
+  const float hidden_m = std::max(0.01f, 2.0f * inlier_m);
   std::size_t candidates = 0, inliers = 0;
   double sum_sq = 0.0;
   for (std::size_t k = 0; k < n_model; ++k) {
     const Eigen::Vector3f p = R * model.points()[k] + t;
     const Eigen::Vector3f n = R * model.normals()[k];
     if (n.dot(p - projector.origin()) >= 0.0f) continue;
-    int i, j;
-    if (!projector.pixel(p, level, i, j)) continue;
+    int i, j, gi, gj;
+    if (!projector.pixel(p, level, i, j) || !projector.pixel(p, grid, gi, gj)) continue;
+    const float z_front = z_buffer[static_cast<std::size_t>(gj) * grid.width + gi];
+    if (p.z() - projector.origin().z() > z_front + hidden_m) continue;
     ++candidates;
     const Eigen::Vector3f& q = level.at(i, j);
     if (!OrganizedCloud::valid(q) || (q - p).norm() > inlier_m) continue;
@@ -256,16 +286,10 @@ std::vector<Level> build_pyramid(const OrganizedCloud& scene, int levels) {
   return pyramid;
 }
 
-RegistrationResult align_impl(const IcpModel& model, const OrganizedCloud& scene,
-                              const Eigen::Isometry3d& guess, const IcpOptions& options,
-                              Clock::time_point started) {
+RegistrationResult run_schedule(const IcpModel& model, const std::vector<Level>& pyramid,
+                                const Projector& projector, const Eigen::Isometry3d& guess,
+                                const IcpOptions& options) {
   RegistrationResult result;
-  result.T_camera_model = guess;
-  result.scene_points = scene.valid_count();
-  int levels = 1;
-  for (const IcpStage& s : options.stages) levels = std::max(levels, s.pyramid_level + 1);
-  const std::vector<Level> pyramid = build_pyramid(scene, levels);
-  const Projector projector(scene);
   const float cos_max_angle =
       static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180.0));
 
@@ -321,7 +345,12 @@ RegistrationResult align_impl(const IcpModel& model, const OrganizedCloud& scene
       H = H.selfadjointView<Eigen::Lower>();
       // A touch of damping keeps a flat or symmetric patch from making the solve singular.
       H.diagonal().array() += 1e-9 + 1e-6 * H.diagonal().maxCoeff();
-      const Eigen::Matrix<double, 6, 1> xi = H.ldlt().solve(-g);
+      Eigen::Matrix<double, 6, 1> xi = Eigen::Matrix<double, 6, 1>::Zero();
+      if (stage.translation_only) {
+        xi.tail<3>() = H.bottomRightCorner<3, 3>().ldlt().solve(-g.tail<3>());
+      } else {
+        xi = H.ldlt().solve(-g);
+      }
       if (!xi.allFinite()) {
         every_stage_matched = false;
         break;
@@ -334,8 +363,39 @@ RegistrationResult align_impl(const IcpModel& model, const OrganizedCloud& scene
   result.T_camera_model = T;
   result.converged = every_stage_matched;
   measure_quality(model, pyramid[0], projector, T, options, result);
-  result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
   return result;
+}
+
+bool better(const RegistrationResult& a, const RegistrationResult& b) {
+  if (a.converged != b.converged) return a.converged;
+  return a.inlier_fraction > b.inlier_fraction;
+}
+
+RegistrationResult align_impl(const IcpModel& model, const OrganizedCloud& scene,
+                              const Eigen::Isometry3d& guess, const IcpOptions& options,
+                              Clock::time_point started) {
+  int levels = 1;
+  for (const IcpStage& s : options.stages) levels = std::max(levels, s.pyramid_level + 1);
+  const std::vector<Level> pyramid = build_pyramid(scene, levels);
+  const Projector projector(scene);
+  RegistrationResult best = run_schedule(model, pyramid, projector, guess, options);
+  int iterations = best.iterations, hypotheses = 1;
+  if (best.inlier_fraction < options.retry_below_inlier_fraction) {
+    for (int axis = 0; axis < 6; ++axis) {
+      Eigen::Isometry3d hypothesis = guess;
+      hypothesis.translation()[axis / 2] += (axis % 2 ? -1.0 : 1.0) * options.hypothesis_offset_m;
+      RegistrationResult r = run_schedule(model, pyramid, projector, hypothesis, options);
+      iterations += r.iterations;
+      ++hypotheses;
+      if (better(r, best)) best = r;
+      if (best.inlier_fraction >= options.retry_below_inlier_fraction) break;
+    }
+  }
+  best.iterations = iterations;
+  best.hypotheses = hypotheses;
+  best.scene_points = scene.valid_count();
+  best.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
+  return best;
 }
 
 }  // namespace
@@ -364,7 +424,8 @@ RegistrationResult evaluate_alignment(const IcpModel& model, const OrganizedClou
   RegistrationResult result;
   result.T_camera_model = T_camera_model;
   result.scene_points = scene.valid_count();
-  measure_quality(model, borrow(scene), Projector(scene), T_camera_model, options, result);
+  const Projector projector(scene);
+  measure_quality(model, borrow(scene), projector, T_camera_model, options, result);
   result.converged = true;
   result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
   return result;

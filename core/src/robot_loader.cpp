@@ -224,6 +224,7 @@ std::optional<RobotSpec> read_robot(const YAML::Node& node, const std::string& f
     // Localization runs on every tour, so a robot file need not spell out the usual one.
     PluginInstanceSpec localization;
     localization.kind = "mrpt_localization";
+    localization.params = YAML::Node(YAML::NodeType::Undefined);
     localization.params_path = services.child_path("localization") + ".params";
     localization.mark = services.mark();
     robot.services["localization"] = std::move(localization);

@@ -35,8 +35,7 @@ std::vector<std::string> InProcessCatalog::kind_names() const {
   return names;
 }
 
-std::string InProcessCatalog::validate_params(const std::string& kind,
-                                              const Params& params) const {
+std::string InProcessCatalog::validate_params(const std::string& kind, const Params& params) const {
   const auto it = kinds_.find(kind);
   if (it == kinds_.end() || !it->second.validator) return "";
   return it->second.validator(params);

@@ -13,8 +13,7 @@ std::vector<std::string> RegistryCatalog::kind_names() const {
   return names;
 }
 
-std::string RegistryCatalog::validate_params(const std::string& kind,
-                                             const Params& params) const {
+std::string RegistryCatalog::validate_params(const std::string& kind, const Params& params) const {
   return registry_.validate_params(kind, params);
 }
 

@@ -9,6 +9,10 @@
 
 namespace projtour {
 
+namespace {
+constexpr std::size_t kMaxTransitionsPerTick = 1000;
+}  // namespace
+
 const char* to_string(TourOutcome outcome) {
   switch (outcome) {
     case TourOutcome::running:
@@ -77,7 +81,9 @@ Executor::Executor(Machine machine, BehaviourInstances behaviours,
   }
 }
 
-std::size_t Executor::target_count() const { return run_.mission->targets.size(); }
+std::size_t Executor::target_count() const {
+  return run_.mission->targets.size();
+}
 
 std::string Executor::active_state() const {
   if (active_.empty() || !active_.back()->is_leaf()) return "";
@@ -159,14 +165,13 @@ void Executor::start_at(const std::string& state_path, std::size_t target_index)
       const std::size_t chosen = *choose_next_target();
       current_target_ = chosen;
       visit_state_ = s;
-      entries_.clear();
+      retries_used_.clear();
       record_ = TargetRecord{};
       record_.index = chosen;
       record_.id = run_.mission->targets[chosen].id;
       run_.blackboard->erase_prefix("target.");
     }
     active_.push_back(s);
-    ++entries_[s->path];
     emit(EventType::enter, *s);
   }
   if (state->for_each_target) first_target_ = target_index;
@@ -180,7 +185,6 @@ void Executor::enter(const StateSpec& state) {
       enter_leaf(state);
       return;
     case StateType::final_state:
-      ++entries_[state.path];
       emit(EventType::enter, state);
       emit(EventType::exit, state);
       complete_composite(*state.parent);
@@ -191,7 +195,6 @@ void Executor::enter(const StateSpec& state) {
         return;
       }
       active_.push_back(&state);
-      ++entries_[state.path];
       emit(EventType::enter, state);
       enter(*state.child(state.initial));
       return;
@@ -200,7 +203,6 @@ void Executor::enter(const StateSpec& state) {
 
 void Executor::enter_leaf(const StateSpec& state) {
   active_.push_back(&state);
-  ++entries_[state.path];
   emit(EventType::enter, state);
   leaf_behaviour_ = behaviours_.at(state.path).get();
   leaf_ctx_ = make_context(&state);
@@ -247,7 +249,7 @@ void Executor::begin_visit(const StateSpec& for_each) {
   }
   current_target_ = *next;
   visit_state_ = &for_each;
-  entries_.clear();
+  retries_used_.clear();
   run_.blackboard->erase_prefix("target.");
   record_ = TargetRecord{};
   record_.index = *next;
@@ -260,7 +262,6 @@ void Executor::begin_visit(const StateSpec& for_each) {
     }
   }
   active_.push_back(&for_each);
-  ++entries_[for_each.path];
   emit(EventType::enter, for_each);
   enter(*for_each.child(for_each.initial));
 }
@@ -284,14 +285,13 @@ void Executor::finish_leaf(Outcome outcome) {
   const StateSpec* leaf = active_.back();
   const bool known = outcome.name == kOutcomeFailed || leaf->transition(outcome.name) != nullptr;
   if (!known) {
-    outcome = Outcome{kOutcomeFailed, "behaviour returned an outcome it does not declare: \"" +
-                                          outcome.name + "\"" +
-                                          (outcome.message.empty() ? "" : " (" + outcome.message + ")")};
+    outcome = Outcome{kOutcomeFailed,
+                      "behaviour returned an outcome it does not declare: \"" + outcome.name +
+                          "\"" + (outcome.message.empty() ? "" : " (" + outcome.message + ")")};
   }
   leave_leaf(outcome);
   const TransitionSpec* t = leaf->transition(outcome.name);
-  const std::string reason =
-      outcome.name + (outcome.message.empty() ? "" : ": " + outcome.message);
+  const std::string reason = outcome.name + (outcome.message.empty() ? "" : ": " + outcome.message);
   if (t == nullptr) {
     abort_tour(leaf->path + " ended with \"" + outcome.name + "\", which has no transition (" +
                reason + ")");
@@ -311,9 +311,8 @@ void Executor::follow(const StateSpec& from, const TransitionSpec& transition,
     }
     const StateSpec* s = from.parent->child(target);
     if (s == nullptr) continue;
-    const auto it = entries_.find(s->path);
-    const int entries = it == entries_.end() ? 0 : it->second;
-    if (entries <= s->retries) {
+    if (!transition.retry || retries_used_[s->path] < s->retries) {
+      if (transition.retry) ++retries_used_[s->path];
       chosen = target;
       next = s;
       break;
@@ -327,6 +326,12 @@ void Executor::follow(const StateSpec& from, const TransitionSpec& transition,
     why = "retries exhausted (" + names + ") after " + reason;
   }
   ++transition_count_;
+  // Transitions that never reach a tick (every start throwing, say) would recurse forever.
+  if (++transitions_this_tick_ > kMaxTransitionsPerTick) {
+    abort_tour(from.path + ": more than " + std::to_string(kMaxTransitionsPerTick) +
+               " transitions without a tick (a loop of states that end at once)");
+    return;
+  }
   emit(EventType::transition, from, transition.outcome, "", next != nullptr ? next->path : chosen);
   if (next != nullptr) {
     enter(*next);
@@ -353,9 +358,8 @@ void Executor::complete_composite(const StateSpec& composite) {
 void Executor::composite_done(const StateSpec& composite) {
   emit(EventType::outcome, composite, kOutcomeDone);
   if (composite.parent == nullptr) {
-    const bool all_projected = std::all_of(records_.begin(), records_.end(), [](const auto& r) {
-      return r.outcome == "projected";
-    });
+    const bool all_projected = std::all_of(records_.begin(), records_.end(),
+                                           [](const auto& r) { return r.outcome == "projected"; });
     finish_tour(all_projected ? TourOutcome::completed : TourOutcome::completed_with_skips);
     return;
   }
@@ -381,10 +385,7 @@ void Executor::end_visit(const std::string& outcome, const std::string& reason) 
   unwind_to(for_each);
   record_.outcome = outcome;
   record_.reason = reason;
-  record_.retries = 0;
-  for (const auto& kv : entries_) {
-    if (kv.first != for_each->path) record_.retries += std::max(0, kv.second - 1);
-  }
+  record_.retries = retries_taken();
   records_.push_back(record_);
   done_.insert(record_.index);
   active_.pop_back();
@@ -395,15 +396,19 @@ void Executor::end_visit(const std::string& outcome, const std::string& reason) 
   begin_visit(*for_each);
 }
 
+int Executor::retries_taken() const {
+  int total = 0;
+  for (const auto& kv : retries_used_) total += kv.second;
+  return total;
+}
+
 void Executor::abort_tour(const std::string& reason) {
   abort_reason_ = reason;
   if (current_target_ && visit_state_ != nullptr) {
     unwind_to(visit_state_);
     record_.outcome = "failed";
     record_.reason = reason;
-    for (const auto& kv : entries_) {
-      if (kv.first != visit_state_->path) record_.retries += std::max(0, kv.second - 1);
-    }
+    record_.retries = retries_taken();
     records_.push_back(record_);
     done_.insert(record_.index);
     active_.pop_back();
@@ -442,6 +447,7 @@ bool Executor::step() {
   if (!started_) start();
   if (finished_) return false;
   clock_.advance(options_.tick_s);
+  transitions_this_tick_ = 0;
   const double now_s = clock_.now_s();
   driver_failure_.clear();
   if (run_.drivers != nullptr) {

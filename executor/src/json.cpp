@@ -161,7 +161,8 @@ class Parser {
           break;
         case 'u': {
           if (pos_ + 4 > text_.size()) fail("short \\u escape");
-          const unsigned code = static_cast<unsigned>(std::stoul(text_.substr(pos_, 4), nullptr, 16));
+          const unsigned code =
+              static_cast<unsigned>(std::stoul(text_.substr(pos_, 4), nullptr, 16));
           pos_ += 4;
           // Only what the writer emits (control characters) and the BMP, as UTF-8.
           if (code < 0x80) {
@@ -267,7 +268,9 @@ const Json& Json::at(const std::string& key) const {
   return *v;
 }
 
-void Json::push_back(Json value) { as_array().push_back(std::move(value)); }
+void Json::push_back(Json value) {
+  as_array().push_back(std::move(value));
+}
 
 std::string Json::dump(int indent) const {
   std::string out;
@@ -318,7 +321,9 @@ void Json::dump_to(std::string& out, int indent, int depth) const {
   }
 }
 
-Json Json::parse(const std::string& text) { return Parser(text).parse_document(); }
+Json Json::parse(const std::string& text) {
+  return Parser(text).parse_document();
+}
 
 void write_file_atomically(const std::filesystem::path& file, const std::string& text) {
   const std::filesystem::path tmp = file.string() + ".tmp";

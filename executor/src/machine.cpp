@@ -129,8 +129,9 @@ class MachineReader {
     const bool has_behaviour = field["behaviour"].defined();
     const bool has_states = field["states"].defined() || field["initial"].defined();
     if (is_final + has_behaviour + has_states != 1) {
-      field.error("a state needs exactly one of behaviour: (leaf), states: with initial: "
-                  "(composite) or final: true");
+      field.error(
+          "a state needs exactly one of behaviour: (leaf), states: with initial: "
+          "(composite) or final: true");
       return false;
     }
     if (is_final) {
@@ -212,6 +213,7 @@ class MachineReader {
       t.mark = key_mark(kv.first, on);
       t.field_path = value.path();
       if (value.is_sequence()) {
+        t.retry = true;
         for (std::size_t i = 0; i < value.size(); ++i) {
           if (auto s = value[i].as_string()) t.targets.push_back(*s);
         }
@@ -354,7 +356,8 @@ std::optional<Machine> load_machine(const MachineSource& source, const Behaviour
     if (!node) return std::nullopt;
     return load_machine(YamlField(*node, kDefaultMachineFile, diag), catalog, diag);
   }
-  if (source.path.empty()) return load_machine(YamlField(source.node, source.file, diag), catalog, diag);
+  if (source.path.empty())
+    return load_machine(YamlField(source.node, source.file, diag), catalog, diag);
   // Give the fields their path inside the mission ("machine.states...") by reading the node
   // as a child of a wrapper; the node keeps its own marks.
   YAML::Node wrapper;

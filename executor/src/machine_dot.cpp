@@ -45,8 +45,7 @@ class DotWriter {
       indent(depth);
       out_ << "subgraph " << quoted("cluster_" + s.path) << " {\n";
       indent(depth + 1);
-      out_ << "label=" << quoted(s.name + (s.for_each_target ? " (for each target)" : ""))
-           << ";\n";
+      out_ << "label=" << quoted(s.name + (s.for_each_target ? " (for each target)" : "")) << ";\n";
       for (const auto& c : s.children) write_state(*c, depth + 1);
       indent(depth);
       out_ << "}\n";
@@ -83,9 +82,9 @@ class DotWriter {
       for (std::size_t i = 0; i < t.targets.size(); ++i) {
         const std::string& target = t.targets[i];
         std::string to;
-        std::string attrs = "label=" + quoted(i == 0 ? t.outcome
-                                                     : t.outcome + " (" + t.targets[i - 1] +
-                                                           " retries used up)");
+        std::string attrs =
+            "label=" +
+            quoted(i == 0 ? t.outcome : t.outcome + " (" + t.targets[i - 1] + " retries used up)");
         if (i > 0) attrs += ", style=dashed";
         if (is_reserved_target(target)) {
           to = terminal(target, s);
@@ -108,6 +107,8 @@ class DotWriter {
 
 }  // namespace
 
-std::string machine_to_dot(const Machine& machine) { return DotWriter().write(machine); }
+std::string machine_to_dot(const Machine& machine) {
+  return DotWriter().write(machine);
+}
 
 }  // namespace projtour

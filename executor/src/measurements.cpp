@@ -52,7 +52,8 @@ void measure_align(const Context& ctx, GroundTruth* truth, Json& out) {
 
 void measure_project(const Context& ctx, GroundTruth* truth, Json& out) {
   const Blackboard& bb = ctx.blackboard();
-  if (const auto shown_s = bb.get<double>(keys::kProjectedSeconds)) out.set("projected_s", *shown_s);
+  if (const auto shown_s = bb.get<double>(keys::kProjectedSeconds))
+    out.set("projected_s", *shown_s);
   if (truth == nullptr || ctx.target == nullptr) return;
   using Pixels = std::array<Eigen::Vector2d, 4>;
   const auto before = bb.get<Pixels>(keys::kPixelsBeforeAlign);

@@ -86,7 +86,8 @@ std::optional<Outcome> ScriptedBehaviour::tick(Context& ctx) {
   }
   if (ctx.cancel_requested() && !ignore_cancel_) return Outcome{kOutcomeCancelled, "cancelled"};
   if (++ticks_this_run_ < ticks_) return std::nullopt;
-  const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(runs_ - 1), outcomes_.size() - 1);
+  const std::size_t k =
+      std::min<std::size_t>(static_cast<std::size_t>(runs_ - 1), outcomes_.size() - 1);
   Outcome outcome{outcomes_[k], message_};
   if (outcome.name == "succeeded" && next_target_ >= 0) {
     ctx.blackboard().set(keys::kNextTargetIndex, next_target_);
@@ -95,7 +96,9 @@ std::optional<Outcome> ScriptedBehaviour::tick(Context& ctx) {
   return outcome;
 }
 
-void ScriptedBehaviour::stop(Context&) { ++stops_; }
+void ScriptedBehaviour::stop(Context&) {
+  ++stops_;
+}
 void ScriptedBehaviour::pause(Context&) {
   ++pauses_;
   paused_ = true;

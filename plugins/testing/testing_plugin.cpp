@@ -77,7 +77,8 @@ class TestLaser : public LaserDriver {
 // Reaches every command at once.
 class TestPanTilt : public PanTiltDriver {
  public:
-  TestPanTilt(const Params& params, const RunContext& run) : device_("test_pan_tilt", params, run) {}
+  TestPanTilt(const Params& params, const RunContext& run)
+      : device_("test_pan_tilt", params, run) {}
   void safe_stop() override { device_.note_safe_stop(); }
   void command(const JointAngles& angles) override { angles_ = angles; }
   JointAngles measured() const override { return angles_; }
@@ -90,7 +91,8 @@ class TestPanTilt : public PanTiltDriver {
 
 class TestDepthCamera : public DepthCameraDriver {
  public:
-  TestDepthCamera(const Params& params, const RunContext& run) : device_("test_depth_camera", params, run) {}
+  TestDepthCamera(const Params& params, const RunContext& run)
+      : device_("test_depth_camera", params, run) {}
   void safe_stop() override { device_.note_safe_stop(); }
   std::optional<DepthFrame> grab() override { return std::nullopt; }
 
@@ -100,7 +102,8 @@ class TestDepthCamera : public DepthCameraDriver {
 
 class TestProjector : public ProjectorDriver {
  public:
-  TestProjector(const Params& params, const RunContext& run) : device_("test_projector", params, run) {}
+  TestProjector(const Params& params, const RunContext& run)
+      : device_("test_projector", params, run) {}
   void safe_stop() override {
     blank_ = true;
     device_.note_safe_stop();
@@ -154,16 +157,16 @@ const projtour_kind_desc kKinds[] = {
                                       kScriptedParams, kNavigate, validate_scripted),
     behaviour_kind<ScriptedBehaviour>("scripted_relocalize", "scripted, relocalize's outcomes",
                                       kScriptedParams, kRelocalize, validate_scripted),
-    behaviour_kind<ScriptedBehaviour>("scripted_aim", "scripted, aim's outcomes",
-                                      kScriptedParams, kAim, validate_scripted),
+    behaviour_kind<ScriptedBehaviour>("scripted_aim", "scripted, aim's outcomes", kScriptedParams,
+                                      kAim, validate_scripted),
     behaviour_kind<ScriptedBehaviour>("scripted_capture", "scripted, capture's outcomes",
                                       kScriptedParams, kCapture, validate_scripted),
     behaviour_kind<ScriptedBehaviour>("scripted_align", "scripted, align's outcomes",
                                       kScriptedParams, kAlign, validate_scripted),
     behaviour_kind<ScriptedBehaviour>("scripted_project", "scripted, project's outcomes",
                                       kScriptedParams, kProject, validate_scripted),
-    behaviour_kind<ScriptedBehaviour>("scripted_next", "scripted, next's outcomes",
-                                      kScriptedParams, kNext, validate_scripted),
+    behaviour_kind<ScriptedBehaviour>("scripted_next", "scripted, next's outcomes", kScriptedParams,
+                                      kNext, validate_scripted),
     driver_kind<TestBase>("test_base", "base", "null base: integrates commands exactly",
                           kNullDeviceParams),
     driver_kind<TestLaser>("test_laser", "laser", "null laser: never scans", kNullDeviceParams),

@@ -4,7 +4,7 @@
 #include <random>
 
 #include "projtour/registration.hpp"
-#include "synthetic_depth.hpp"
+#include "rendered_scenes.hpp"
 
 namespace projtour {
 namespace {
@@ -31,8 +31,8 @@ TEST(OrganizedCloud, PlaneAtKnownDepthWithDepthColourOffset) {
     for (int u : {0, 320, 639}) {
       const Eigen::Vector3f& p = cloud.at(u, v);
       EXPECT_NEAR(p.z(), 1.5, 1e-6);
-      EXPECT_NEAR(p.x(), (u - 319.5) / 525.0 * 1.5 + 0.05, 1e-5);
-      EXPECT_NEAR(p.y(), (v - 239.5) / 525.0 * 1.5, 1e-5);
+      EXPECT_NEAR(p.x(), (u - 319.5) / 570.3 * 1.5 + 0.05, 1e-5);
+      EXPECT_NEAR(p.y(), (v - 239.5) / 570.3 * 1.5, 1e-5);
     }
   }
   // The range limits drop the whole plane.
@@ -42,7 +42,7 @@ TEST(OrganizedCloud, PlaneAtKnownDepthWithDepthColourOffset) {
 TEST(OrganizedCloud, CropSphereKeepsExactlyThePointsInside) {
   const TriangleMesh bunny = load_mesh(PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply");
   const Eigen::Isometry3d T = test::T_camera_model_facing(1.0, 0.2);
-  const DepthFrame f = test::render_scene(bunny, T, true, 1.0, 3);
+  const DepthFrame f = test::render_on_floor(bunny, T, true, 3);
   const Eigen::Vector3d offset(0.05, 0.0, 0.0);
   const OrganizedCloud full = organized_cloud(f, offset);
   const Eigen::Vector3d centre = T.translation() + Eigen::Vector3d(0.02, -0.01, 0.03);
@@ -108,7 +108,7 @@ TEST_F(ProjectiveIcpTest, RecoversThePoseFromFiveCentimetresAndDegrees) {
   // Truth in the camera frame; the renderer works in the depth optical frame.
   Eigen::Isometry3d T_depth_model = truth;
   T_depth_model.translation() -= offset;
-  const DepthFrame f = test::render_scene(*mesh_, T_depth_model, true, 1.0, 11);
+  const DepthFrame f = test::render_on_floor(*mesh_, T_depth_model, true, 11);
   std::mt19937 rng(5);
   for (int trial = 0; trial < 10; ++trial) {
     const Eigen::Isometry3d guess = test::perturb(truth, 0.05, deg_to_rad(5.0), rng);
@@ -124,7 +124,7 @@ TEST_F(ProjectiveIcpTest, RecoversThePoseFromFiveCentimetresAndDegrees) {
 
 TEST_F(ProjectiveIcpTest, QualityOfAWrongPoseIsPoor) {
   const Eigen::Isometry3d truth = test::T_camera_model_facing(1.0, 0.3);
-  const DepthFrame f = test::render_scene(*mesh_, truth, true, 1.0, 12);
+  const DepthFrame f = test::render_on_floor(*mesh_, truth, true, 12);
   const OrganizedCloud scene = crop_sphere(f, Eigen::Vector3d::Zero(), truth.translation(), 0.35);
   const RegistrationResult good = evaluate_alignment(*model_, scene, truth);
   Eigen::Isometry3d off = truth;

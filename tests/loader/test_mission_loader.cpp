@@ -1,6 +1,8 @@
 // Mission files: the values loaded from good input, and for bad input every diagnostic exactly
 // (file, line, column, field path, message).
 #include <cmath>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "loader_fixture.hpp"
 #include "projtour/mission_loader.hpp"
@@ -85,6 +87,9 @@ TEST_F(MissionLoader, RelativePathsResolveAgainstTheFileThatNamesThem) {
   write("robots/ud.yaml", kRobot);
   write("assets/models/bunny.ply", "ply\n");
   ASSERT_TRUE(cv::imwrite(dir + "/assets/sale.jpg", cv::Mat(4, 4, CV_8UC1, cv::Scalar(9))));
+  // The second target keeps its plain names, which now mean files beside the mission.
+  write("missions/bunny.ply", "ply\n");
+  ASSERT_TRUE(cv::imwrite(dir + "/missions/sale.png", cv::Mat(4, 4, CV_8UC1, cv::Scalar(9))));
   std::string text = replace(kMission, "map: map.yaml", "map: ../maps/site.yaml");
   text = replace(text, "robot: robot.yaml", "robot: ../robots/ud.yaml");
   text = replace(text, "model: bunny.ply", "model: ../assets/models/bunny.ply");
@@ -301,7 +306,7 @@ TEST_F(MissionLoader, UnknownPoseKeySuggestsAndYawIsMissing) {
   EXPECT_THAT(
       mission_errors(replace(kMission, "yaw_deg: -90", "yaw_dg: -90")),
       ElementsAre(
-          dir + "/m.yaml:15:37: targets[1].pose.yaw_dg: unknown key \"yaw_dg\"; did you mean "
+          dir + "/m.yaml:15:36: targets[1].pose.yaw_dg: unknown key \"yaw_dg\"; did you mean "
                 "\"yaw_deg\"?",
           dir + "/m.yaml:15:11: targets[1].pose.yaw_deg: missing required field"));
 }
@@ -309,7 +314,7 @@ TEST_F(MissionLoader, UnknownPoseKeySuggestsAndYawIsMissing) {
 TEST_F(MissionLoader, UnknownStartKeyWithoutCloseMatch) {
   EXPECT_THAT(
       mission_errors(replace(kMission, "yaw_deg: 90}", "yaw_deg: 90, heading: 1}")),
-      ElementsAre(dir + "/m.yaml:4:34: start.heading: unknown key \"heading\""));
+      ElementsAre(dir + "/m.yaml:4:38: start.heading: unknown key \"heading\""));
 }
 
 // ---------------------------------------------------------------- files

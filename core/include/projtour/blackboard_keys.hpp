@@ -19,6 +19,10 @@ inline const std::string kLocalizationConverged = "localization.converged";
 // double: widen the particle cloud by this many metres (relocalize sets it, the service clears).
 inline const std::string kLocalizationWiden = "localization.widen_m";
 
+// LaserScan: the newest scan, republished by the localization service (which takes the laser's
+// scans) so behaviours can look for obstacles.
+inline const std::string kLaserScan = "localization.scan";
+
 // std::vector<Pose2D>: the last path navigate planned (for tour.png).
 inline const std::string kPlannedPath = "target.navigate.path";
 // std::shared_ptr<const DepthFrame>: the frame capture took.
@@ -46,5 +50,9 @@ inline const std::string kProjectedSeconds = "target.project.projected_s";
 
 // long long: index of the target to visit next (set by next; the for_each reads it).
 inline const std::string kNextTargetIndex = "tour.next_target_index";
+// std::vector<std::string>: ids of the targets whose visit is over (projected or skipped), in
+// the order they ended. The executor appends when a visit ends (and restores it from a
+// checkpoint); next appends the target it leaves. next never picks a target listed here.
+inline const std::string kDoneTargets = "tour.done_targets";
 
 }  // namespace projtour::keys

@@ -59,6 +59,9 @@ struct IcpStage {
   int search_radius_px = 0;  // association window: +- pixels around the projection, at this level
   double max_distance_m = 0.01;  // correspondences farther apart are rejected
   int iterations = 5;
+  // Solve for translation only: far from the truth the rotation is poorly constrained and a
+  // free rotation step can throw the model onto the support plane.
+  bool translation_only = false;
 };
 
 struct IcpOptions {
@@ -72,6 +75,11 @@ struct IcpOptions {
   // Quality is measured at full resolution: a visible model point is an inlier when its scene
   // point is within this distance.
   double inlier_distance_m = 0.006;
+  // The coarse stage's safety net: when the result's inlier fraction stays under this, the
+  // whole schedule runs again from hypotheses around the guess (shifted by hypothesis_offset_m
+  // along each camera axis) and the best-fitting result wins. 0 disables it.
+  double retry_below_inlier_fraction = 0.5;
+  double hypothesis_offset_m = 0.06;
 
   static std::vector<IcpStage> default_stages();
 };
@@ -79,7 +87,8 @@ struct IcpOptions {
 struct RegistrationResult {
   Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
   bool converged = false;  // enough correspondences at every stage
-  int iterations = 0;  // over all stages
+  int iterations = 0;  // over all stages (and hypotheses)
+  int hypotheses = 1;  // schedules run: 1, or more when the first fit was poor
   double inlier_fraction = 0.0;  // of the model points facing the camera that land on the image
   double rmse_mm = 0.0;  // point-to-plane, over the inliers
   std::size_t inliers = 0;

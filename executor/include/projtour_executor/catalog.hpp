@@ -23,8 +23,7 @@ class BehaviourCatalog {
   // "" when fine, else why the values are wrong (the kind's own validate()).
   virtual std::string validate_params(const std::string& kind, const Params& params) const = 0;
   // Throws when the kind is unknown or its create fails.
-  virtual std::shared_ptr<Behaviour> create_behaviour(const std::string& kind,
-                                                      const Params& params,
+  virtual std::shared_ptr<Behaviour> create_behaviour(const std::string& kind, const Params& params,
                                                       const RunContext& run) const = 0;
 };
 

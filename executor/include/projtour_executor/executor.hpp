@@ -103,6 +103,7 @@ class Executor {
   void end_visit(const std::string& outcome, const std::string& reason);
   void unwind_to(const StateSpec* keep);
   void abort_tour(const std::string& reason);
+  int retries_taken() const;
   void interrupt();
   void finish_tour(TourOutcome outcome);
   Context make_context(const StateSpec* leaf) const;
@@ -131,14 +132,15 @@ class Executor {
 
   std::optional<std::size_t> current_target_;
   std::optional<std::size_t> first_target_;
-  const StateSpec* visit_state_ = nullptr;  // the for_each being visited
-  std::map<std::string, int> entries_;      // per state path, in the current visit
+  const StateSpec* visit_state_ = nullptr;   // the for_each being visited
+  std::map<std::string, int> retries_used_;  // per state path, in the current visit
   TargetRecord record_;
   std::vector<TargetRecord> records_;
   std::set<std::size_t> done_;
   std::string abort_reason_;
   std::vector<std::string> ignored_cancel_;
   std::size_t transition_count_ = 0;
+  std::size_t transitions_this_tick_ = 0;
 };
 
 }  // namespace projtour

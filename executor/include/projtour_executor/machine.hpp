@@ -7,9 +7,12 @@
 //   composite: initial: CHILD, states: {NAME: STATE, ...}, for_each: target, on: {done: TARGET}
 //   final:     final: true  (entering it completes the enclosing composite)
 // A TARGET is a sibling state's name, one of the reserved words skip_target / finish / abort,
-// or a list of them tried in order: a sibling whose re-entries in this visit have used up its
-// `retries` is passed over. When every entry of a list is used up, the target is skipped (or
-// the tour aborted outside a for_each), with reason "retries exhausted".
+// or a retry list of them tried in order, e.g. `poor_fit: [capture, aim, skip_target]`: taking
+// a state through a list uses one of that state's `retries` for the current visit (target), and
+// a state whose retries are used up is passed over. A plain (non-list) transition never uses
+// retries. When every entry of a list is used up the target is skipped (outside a for_each the
+// tour aborts), with reason "retries exhausted". The report's `retries` of a target counts the
+// retry transitions taken in its visit.
 #include <memory>
 #include <optional>
 #include <string>
@@ -35,7 +38,8 @@ bool is_reserved_target(const std::string& name);
 
 struct TransitionSpec {
   std::string outcome;
-  std::vector<std::string> targets;  // fallback chain
+  std::vector<std::string> targets;  // one, or a retry list
+  bool retry = false;                // written as a list: uses the chosen state's retries
   SourceMark mark;
   std::string field_path;
 };
@@ -54,7 +58,7 @@ struct StateSpec {
   std::string behaviour;
   Params params;
   double timeout_s = 0.0;  // 0 = none
-  int retries = 0;
+  int retries = 0;         // how often retry lists may take this state in one visit
 
   // Composite.
   std::string initial;

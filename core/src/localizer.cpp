@@ -1,0 +1,160 @@
+#include "projtour/localizer.hpp"
+
+#include <mrpt/bayes/CParticleFilter.h>
+#include <mrpt/maps/COccupancyGridMap2D.h>
+#include <mrpt/obs/CActionCollection.h>
+#include <mrpt/obs/CActionRobotMovement2D.h>
+#include <mrpt/obs/CObservation2DRangeScan.h>
+#include <mrpt/obs/CSensoryFrame.h>
+#include <mrpt/random/RandomGenerators.h>
+#include <mrpt/slam/CMonteCarloLocalization2D.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+
+namespace projtour {
+
+struct Localizer::Impl {
+  std::shared_ptr<mrpt::maps::COccupancyGridMap2D> map;
+  mrpt::slam::CMonteCarloLocalization2D pdf;
+  mrpt::bayes::CParticleFilter filter;
+  mrpt::obs::CActionRobotMovement2D::TMotionModelOptions motion;
+};
+
+Localizer::Localizer(const mrpt::maps::COccupancyGridMap2D& map, const LocalizerOptions& options,
+                     std::uint64_t seed)
+    : impl_(std::make_unique<Impl>()), options_(options) {
+  mrpt::random::getRandomGenerator().randomize(static_cast<std::uint32_t>(seed));
+  impl_->map = std::make_shared<mrpt::maps::COccupancyGridMap2D>(map);
+  auto& likelihood = impl_->map->likelihoodOptions;
+  likelihood.likelihoodMethod = mrpt::maps::COccupancyGridMap2D::lmLikelihoodField_Thrun;
+  likelihood.LF_stdHit = static_cast<float>(options.lf_sigma_m);
+  likelihood.LF_maxCorrsDistance = static_cast<float>(options.lf_max_corr_m);
+  likelihood.LF_decimation = static_cast<std::uint32_t>(std::max(1, options.lf_decimation));
+  likelihood.LF_zHit = 0.95f;
+  likelihood.LF_zRandom = 0.05f;
+  likelihood.enableLikelihoodCache = true;
+
+  impl_->pdf.options.metricMap = impl_->map;
+  auto& pf = impl_->filter.m_options;
+  pf.PF_algorithm = mrpt::bayes::CParticleFilter::pfStandardProposal;
+  pf.resamplingMethod = mrpt::bayes::CParticleFilter::prSystematic;
+  pf.adaptiveSampleSize = false;
+  pf.BETA = options.resample_beta;
+
+  auto& motion = impl_->motion;
+  motion.modelSelection = mrpt::obs::CActionRobotMovement2D::mmGaussian;
+  motion.gaussianModel.a1 = options.odom_trans_noise_frac;  // m per m
+  motion.gaussianModel.a2 = 0.0;
+  motion.gaussianModel.a3 = 0.0;
+  motion.gaussianModel.a4 = options.odom_rot_noise_frac;  // rad per rad
+  motion.gaussianModel.minStdXY = options.odom_min_std_m;
+  motion.gaussianModel.minStdPHI = deg_to_rad(options.odom_min_std_deg);
+}
+
+Localizer::~Localizer() = default;
+
+void Localizer::reset(const Pose2D& guess) {
+  impl_->pdf.resetUniform(guess.x_m - options_.init_spread_m, guess.x_m + options_.init_spread_m,
+                          guess.y_m - options_.init_spread_m, guess.y_m + options_.init_spread_m,
+                          guess.yaw_rad - deg_to_rad(options_.init_spread_deg),
+                          guess.yaw_rad + deg_to_rad(options_.init_spread_deg),
+                          std::max(1, options_.particles));
+}
+
+void Localizer::widen(double spread_m, double spread_rad) {
+  auto& random = mrpt::random::getRandomGenerator();
+  for (auto& particle : impl_->pdf.m_particles) {
+    particle.d.x += random.drawUniform(-spread_m, spread_m);
+    particle.d.y += random.drawUniform(-spread_m, spread_m);
+    particle.d.phi = wrap_angle_rad(particle.d.phi + random.drawUniform(-spread_rad, spread_rad));
+    particle.log_w = 0.0;
+  }
+}
+
+std::shared_ptr<mrpt::obs::CObservation2DRangeScan> Localizer::to_mrpt(const LaserScan& scan) {
+  auto obs = std::make_shared<mrpt::obs::CObservation2DRangeScan>();
+  const std::size_t n = scan.ranges_m.size();
+  obs->resizeScan(n);
+  obs->maxRange = static_cast<float>(scan.max_range_m);
+  obs->rightToLeft = scan.angle_increment_rad >= 0.0;
+  const double span_rad = scan.angle_increment_rad * (n > 0 ? static_cast<double>(n - 1) : 0.0);
+  obs->aperture = static_cast<float>(std::abs(span_rad));
+  for (std::size_t i = 0; i < n; ++i) {
+    const float r = scan.ranges_m[i];
+    const bool valid = (i >= scan.valid.size() || scan.valid[i] != 0) && std::isfinite(r) &&
+                       r > 0.0f && r < scan.max_range_m;
+    obs->setScanRange(i, valid ? r : static_cast<float>(scan.max_range_m));
+    obs->setScanRangeValidity(i, valid);
+  }
+  // MRPT spreads the rays symmetrically about the sensor's x axis; a scan whose middle ray
+  // points elsewhere has its sensor frame turned by that much.
+  const double centre_rad = scan.angle_min_rad + 0.5 * span_rad;
+  const Pose2D mount = pose2d_from_isometry(scan.T_base_laser);
+  obs->sensorPose = mrpt::poses::CPose3D(mount.x_m, mount.y_m, scan.T_base_laser.translation().z(),
+                                         wrap_angle_rad(mount.yaw_rad + centre_rad), 0.0, 0.0);
+  obs->timestamp = mrpt::Clock::fromDouble(scan.t_s);
+  return obs;
+}
+
+void Localizer::update(const Pose2D& odometry_increment, const LaserScan& scan) {
+  update(odometry_increment, *to_mrpt(scan));
+}
+
+void Localizer::update(const Pose2D& odometry_increment,
+                       const mrpt::obs::CObservation2DRangeScan& scan) {
+  mrpt::obs::CActionRobotMovement2D movement;
+  movement.computeFromOdometry(mrpt::poses::CPose2D(odometry_increment.x_m, odometry_increment.y_m,
+                                                    odometry_increment.yaw_rad),
+                               impl_->motion);
+  mrpt::obs::CActionCollection actions;
+  actions.insert(movement);
+  mrpt::obs::CSensoryFrame frame;
+  frame.insert(std::make_shared<mrpt::obs::CObservation2DRangeScan>(scan));
+  impl_->filter.executeOn(impl_->pdf, &actions, &frame);
+}
+
+PoseEstimate2D Localizer::estimate() const {
+  const auto [cov, mean] = impl_->pdf.getCovarianceAndMean();
+  PoseEstimate2D out;
+  out.mean = Pose2D{mean.x(), mean.y(), wrap_angle_rad(mean.phi())};
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) out.covariance(r, c) = cov(r, c);
+  }
+  return out;
+}
+
+bool Localizer::converged() const {
+  const PoseEstimate2D e = estimate();
+  return position_std_m(e) < options_.converged_std_m &&
+         yaw_std_rad(e) < deg_to_rad(options_.converged_std_deg);
+}
+
+std::size_t Localizer::particle_count() const {
+  return impl_->pdf.size();
+}
+
+double position_std_m(const PoseEstimate2D& estimate) {
+  const Eigen::Matrix2d xy = estimate.covariance.topLeftCorner<2, 2>();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(xy);
+  return std::sqrt(std::max(0.0, solver.eigenvalues().maxCoeff()));
+}
+
+double yaw_std_rad(const PoseEstimate2D& estimate) {
+  return std::sqrt(std::max(0.0, estimate.covariance(2, 2)));
+}
+
+Pose2D pose_delta(const Pose2D& a, const Pose2D& b) {
+  const double c = std::cos(a.yaw_rad), s = std::sin(a.yaw_rad);
+  const double dx = b.x_m - a.x_m, dy = b.y_m - a.y_m;
+  return Pose2D{c * dx + s * dy, -s * dx + c * dy, wrap_angle_rad(b.yaw_rad - a.yaw_rad)};
+}
+
+Pose2D pose_compose(const Pose2D& a, const Pose2D& delta) {
+  const double c = std::cos(a.yaw_rad), s = std::sin(a.yaw_rad);
+  return Pose2D{a.x_m + c * delta.x_m - s * delta.y_m, a.y_m + s * delta.x_m + c * delta.y_m,
+                wrap_angle_rad(a.yaw_rad + delta.yaw_rad)};
+}
+
+}  // namespace projtour

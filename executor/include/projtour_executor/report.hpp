@@ -1,0 +1,46 @@
+#pragma once
+// report.json, checkpoint.json and the end-of-run table.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "projtour/mission.hpp"
+#include "projtour_executor/events.hpp"
+#include "projtour_executor/executor.hpp"
+#include "projtour_executor/json.hpp"
+
+namespace projtour {
+
+struct RunSummary {
+  std::string mission;
+  bool dry_run = false;
+  std::uint64_t seed = 1;
+  TourOutcome outcome = TourOutcome::running;
+  double wall_s = 0.0;
+  double mission_s = 0.0;
+  std::vector<TargetRecord> targets;  // any order; written in mission order
+};
+
+// DESIGN.md's report.json, nothing more.
+Json build_report(const RunSummary& summary);
+
+struct Checkpoint {
+  std::string mission;
+  std::uint64_t seed = 1;
+  double mission_s = 0.0;
+  std::vector<TargetRecord> done;             // indices resolved against the mission
+  std::optional<std::string> current_target;  // the visit an interruption cut short
+};
+
+Json checkpoint_to_json(const Checkpoint& checkpoint);
+// Throws std::runtime_error naming the file: unreadable, malformed, another mission, or a
+// target the mission does not have.
+Checkpoint read_checkpoint(const std::filesystem::path& file, const MissionSpec& mission);
+
+// The per-target table printed at the end of a run.
+void print_target_table(const RunSummary& summary, std::ostream& out);
+
+}  // namespace projtour

@@ -1,0 +1,71 @@
+#pragma once
+// The `projtour run | validate | graph` pipeline: load the mission (and world), load the
+// plugins, check the machine and every parameter, check the mission against the map; only then
+// create drivers, services and behaviours and tick the tour.
+#include <cstdint>
+#include <filesystem>
+#include <iosfwd>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "projtour/diagnostics.hpp"
+#include "projtour/mission.hpp"
+#include "projtour/plugin_loader.hpp"
+#include "projtour_executor/catalog.hpp"
+#include "projtour_executor/machine.hpp"
+
+namespace mrpt::maps {
+class COccupancyGridMap2D;
+}
+
+namespace projtour {
+
+struct RunOptions {
+  std::filesystem::path mission;
+  bool dry_run = false;
+  std::optional<std::filesystem::path> world;
+  std::optional<std::uint64_t> seed;
+  std::optional<std::filesystem::path> out;  // default runs/<mission>-<time>/
+  bool resume = false;
+  // Mission seconds per wall second; 0 = as fast as possible. Default: 0 in a dry run, else 1.
+  std::optional<double> speed;
+  std::vector<std::filesystem::path> plugin_paths;
+  double tick_hz = 20.0;
+  double cancel_grace_s = 2.0;
+};
+
+// A kind with its checked parameters.
+struct InstanceChoice {
+  std::string kind;
+  Params params;
+};
+
+// Everything checked before anything moves.
+struct PreparedRun {
+  MissionSpec mission;
+  std::optional<WorldSpec> world;
+  std::unique_ptr<PluginRegistry> registry;
+  std::unique_ptr<RegistryCatalog> catalog;
+  std::optional<Machine> machine;
+  std::shared_ptr<mrpt::maps::COccupancyGridMap2D> map;
+  std::map<std::string, InstanceChoice> drivers;   // by interface
+  std::map<std::string, InstanceChoice> services;  // by role
+  std::vector<std::string> plugin_load_problems;
+};
+
+enum class PrepareDepth { machine, everything };
+
+// nullptr when any error was recorded in `diag`. `depth` machine stops after the machine
+// (graph); everything adds drivers, services and the map.
+std::unique_ptr<PreparedRun> prepare_run(const RunOptions& options, PrepareDepth depth,
+                                         Diagnostics& diag);
+
+// The subcommands; each returns the process exit status.
+int run_command(const RunOptions& options, std::ostream& out, std::ostream& err);
+int validate_command(const RunOptions& options, std::ostream& out, std::ostream& err);
+int graph_command(const RunOptions& options, std::ostream& out, std::ostream& err);
+
+}  // namespace projtour

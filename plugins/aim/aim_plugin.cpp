@@ -1,0 +1,142 @@
+// aim: turn the head so the projector's optical axis passes through the target's projection
+// area. The aim point is the centroid of the four Model Points in the map (the centre of the
+// content), or the model origin with `aim_at: origin`. The projector stays blank while the head
+// moves; the step succeeds once the driver reports the angles reached and `settle_s` has passed.
+#include <cmath>
+#include <sstream>
+
+#include "projtour/blackboard_keys.hpp"
+#include "projtour/kinematics.hpp"
+#include "projtour/plugin_author.hpp"
+
+namespace projtour {
+namespace {
+
+std::string fmt_angles(const JointAngles& q) {
+  std::ostringstream s;
+  s.precision(2);
+  s << std::fixed << "pan " << rad_to_deg(q.pan_rad) << " deg, tilt " << rad_to_deg(q.tilt_rad)
+    << " deg";
+  return s.str();
+}
+
+class Aim : public Behaviour {
+ public:
+  Aim(const Params& params, const RunContext& run)
+      : settle_s_(params.number("settle_s")),
+        aim_at_origin_(params.string("aim_at") == "origin"),
+        kinematics_(run.mission != nullptr ? run.mission->robot : RobotSpec{}) {
+    if (run.mission == nullptr) throw std::invalid_argument("aim needs the mission's robot");
+  }
+
+  void start(Context& ctx) override {
+    early_.reset();
+    reached_at_s_.reset();
+    if (ctx.target == nullptr) throw std::runtime_error("aim runs only inside a visit to a target");
+    const TargetSpec& target = *ctx.target;
+    const auto estimate = ctx.blackboard().get<PoseEstimate2D>(keys::kLocalization);
+    if (!estimate) {
+      early_ = Outcome{kOutcomeFailed, "target " + target.id +
+                                           ": no localization estimate on the blackboard (" +
+                                           keys::kLocalization + "); cannot aim"};
+      return;
+    }
+    if (!ctx.drivers().pan_tilt) {
+      early_ = Outcome{kOutcomeFailed, "target " + target.id + ": no pan-tilt driver"};
+      return;
+    }
+    Eigen::Vector3d p_map = target.T_map_model.translation();
+    if (!aim_at_origin_) {
+      Eigen::Vector3d centroid_model = Eigen::Vector3d::Zero();
+      for (const auto& p : target.model_points) centroid_model += p / 4.0;
+      p_map = target.T_map_model * centroid_model;
+    }
+    const Eigen::Isometry3d T_map_base = isometry_from_pose2d(estimate->mean);
+    const Eigen::Vector3d p_base = T_map_base.inverse() * p_map;
+    std::string why;
+    const auto q = kinematics_.aim_projector_at(p_base, &why);
+    if (!q) {
+      std::ostringstream s;
+      s.precision(2);
+      s << std::fixed << "target " << target.id << ": aim point (" << p_base.x() << ", "
+        << p_base.y() << ", " << p_base.z() << ") m in the base frame is out of reach: " << why;
+      early_ = Outcome{"out_of_reach", s.str()};
+      return;
+    }
+    goal_ = *q;
+    // Never light the scene while the head sweeps.
+    if (ctx.drivers().projector) ctx.drivers().projector->blank();
+    ctx.drivers().pan_tilt->command(goal_);
+    ctx.log().debug("aim " + target.id + ": " + fmt_angles(goal_));
+  }
+
+  std::optional<Outcome> tick(Context& ctx) override {
+    if (early_) return early_;
+    if (ctx.cancel_requested()) {
+      hold(ctx);
+      return Outcome{kOutcomeCancelled, "cancelled while aiming"};
+    }
+    if (!ctx.drivers().pan_tilt->reached()) {
+      reached_at_s_.reset();
+      return std::nullopt;
+    }
+    if (!reached_at_s_) reached_at_s_ = ctx.now_s();
+    if (ctx.now_s() - *reached_at_s_ < settle_s_) return std::nullopt;
+    return Outcome{"succeeded", "aimed at " + ctx.target->id + ": " + fmt_angles(goal_)};
+  }
+
+  void stop(Context& ctx) override {
+    if (ctx.drivers().projector && !early_) ctx.drivers().projector->blank();
+  }
+
+  void pause(Context& ctx) override { hold(ctx); }
+  void resume(Context& ctx) override {
+    reached_at_s_.reset();
+    if (!early_ && ctx.drivers().pan_tilt) ctx.drivers().pan_tilt->command(goal_);
+  }
+
+ private:
+  // Stops the head where it is.
+  static void hold(Context& ctx) {
+    if (ctx.drivers().pan_tilt) {
+      ctx.drivers().pan_tilt->command(ctx.drivers().pan_tilt->measured());
+    }
+  }
+
+  double settle_s_;
+  bool aim_at_origin_;
+  HeadKinematics kinematics_;
+  JointAngles goal_;
+  std::optional<Outcome> early_;
+  std::optional<double> reached_at_s_;
+};
+
+int validate(const void* params_ptr, char* error, size_t error_size) {
+  const Params& params = *static_cast<const Params*>(params_ptr);
+  const std::string& aim_at = params.string("aim_at");
+  if (aim_at != "model_points" && aim_at != "origin") {
+    plugin_detail::copy_message(
+        ("aim_at must be \"model_points\" or \"origin\", not \"" + aim_at + "\"").c_str(), error,
+        error_size);
+    return 1;
+  }
+  if (params.number("settle_s") < 0) {
+    plugin_detail::copy_message("settle_s must be >= 0", error, error_size);
+    return 1;
+  }
+  return 0;
+}
+
+const projtour_param_desc kParams[] = {
+    {"settle_s", "number", "0.3", "seconds to wait after the head reports its angles reached"},
+    {"aim_at", "string", "model_points",
+     "model_points (centroid of the four Model Points) or origin (the model frame's origin)"}};
+const char* const kOutcomes[] = {"succeeded", "out_of_reach"};
+const projtour_kind_desc kKinds[] = {behaviour_kind<Aim>(
+    "aim", "pan-tilt inverse kinematics: projector optical axis onto the target", kParams,
+    kOutcomes, &validate)};
+
+}  // namespace
+}  // namespace projtour
+
+PROJTOUR_PLUGIN("aim", "1.0.0", projtour::kKinds)

@@ -1,0 +1,224 @@
+// Behaviour `align`: the target's pose in the camera frame from the captured depth frame.
+#include <chrono>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#include "alignment_image.hpp"
+#include "pcl_registration.hpp"
+#include "projtour/blackboard_keys.hpp"
+#include "projtour/kinematics.hpp"
+#include "projtour/plugin_author.hpp"
+#include "projtour/registration.hpp"
+
+namespace projtour::align {
+namespace {
+
+enum class Method { projective_icp, pcl_icp, pcl_gicp };
+
+bool parse_method(const std::string& text, Method& out) {
+  if (text == "projective_icp") return out = Method::projective_icp, true;
+  if (text == "pcl_icp") return out = Method::pcl_icp, true;
+  if (text == "pcl_gicp") return out = Method::pcl_gicp, true;
+  return false;
+}
+
+struct Settings {
+  Method method = Method::projective_icp;
+  std::string method_name;
+  double model_spacing_m = 0.003;
+  double crop_margin_m = 0.1;
+  long long min_points = 500;
+  double min_inlier_fraction = 0.6;
+  double max_rmse_mm = 5.0;
+  double inlier_distance_m = 0.006;
+  long long pcl_max_iterations = 50;
+  double pcl_max_correspondence_m = 0.1;
+  bool draw = true;
+};
+
+// Throws std::invalid_argument naming the parameter; the loader and the constructor share it.
+Settings read_settings(const Params& p) {
+  Settings s;
+  s.method_name = p.string("method");
+  if (!parse_method(s.method_name, s.method)) {
+    throw std::invalid_argument("method: \"" + s.method_name +
+                                "\" is not one of projective_icp, pcl_icp, pcl_gicp");
+  }
+  s.model_spacing_m = p.number("model_spacing_m");
+  s.crop_margin_m = p.number("crop_margin_m");
+  s.min_points = p.integer("min_points");
+  s.min_inlier_fraction = p.number("min_inlier_fraction");
+  s.max_rmse_mm = p.number("max_rmse_mm");
+  s.inlier_distance_m = p.number("inlier_distance_m");
+  s.pcl_max_iterations = p.integer("pcl_max_iterations");
+  s.pcl_max_correspondence_m = p.number("pcl_max_correspondence_m");
+  s.draw = p.boolean("draw");
+  auto positive = [](double v, const char* name) {
+    if (!(v > 0.0)) throw std::invalid_argument(std::string(name) + ": must be > 0");
+  };
+  positive(s.model_spacing_m, "model_spacing_m");
+  positive(s.inlier_distance_m, "inlier_distance_m");
+  positive(s.max_rmse_mm, "max_rmse_mm");
+  positive(static_cast<double>(s.pcl_max_iterations), "pcl_max_iterations");
+  positive(s.pcl_max_correspondence_m, "pcl_max_correspondence_m");
+  if (s.crop_margin_m < 0.0) throw std::invalid_argument("crop_margin_m: must be >= 0");
+  if (s.min_inlier_fraction < 0.0 || s.min_inlier_fraction > 1.0) {
+    throw std::invalid_argument("min_inlier_fraction: must lie in [0, 1]");
+  }
+  return s;
+}
+
+int validate(const void* params, char* error, size_t error_size) {
+  try {
+    read_settings(*static_cast<const Params*>(params));
+    return 0;
+  } catch (const std::exception& e) {
+    plugin_detail::copy_message(e.what(), error, error_size);
+    return 1;
+  }
+}
+
+std::string format_quality(const RegistrationResult& r) {
+  std::ostringstream s;
+  s.precision(3);
+  s << "inlier fraction " << r.inlier_fraction << ", RMSE " << r.rmse_mm << " mm, "
+    << r.iterations << " iterations, " << r.time_ms << " ms";
+  return s.str();
+}
+
+class Align : public Behaviour {
+ public:
+  Align(const Params& params, const RunContext&) : settings_(read_settings(params)) {
+    icp_options_.inlier_distance_m = settings_.inlier_distance_m;
+  }
+
+  void start(Context& ctx) override {
+    if (ctx.target == nullptr) return;
+    // Loading and resampling a model takes a while: once per target over the whole tour.
+    if (models_.count(ctx.target->id) == 0) {
+      models_[ctx.target->id] = std::make_shared<const IcpModel>(
+          load_model_cloud(ctx.target->model, settings_.model_spacing_m));
+    }
+  }
+
+  std::optional<Outcome> tick(Context& ctx) override {
+    if (ctx.cancel_requested()) return Outcome{kOutcomeCancelled, "cancelled"};
+    if (ctx.target == nullptr) return Outcome{kOutcomeFailed, "align runs only within a target visit"};
+    Blackboard& bb = ctx.blackboard();
+    const auto frame = bb.get<std::shared_ptr<const DepthFrame>>(keys::kDepthFrame);
+    if (!frame || !*frame) {
+      return Outcome{kOutcomeFailed, "no depth frame on the blackboard (capture runs before align)"};
+    }
+    const auto localization = bb.get<PoseEstimate2D>(keys::kLocalization);
+    if (!localization) return Outcome{kOutcomeFailed, "no localization estimate on the blackboard"};
+    if (!ctx.drivers().pan_tilt) return Outcome{kOutcomeFailed, "no pan-tilt driver"};
+    JointAngles q;
+    try {
+      q = ctx.drivers().pan_tilt->measured();
+    } catch (const DriverError& e) {
+      return Outcome{kOutcomeFailed, std::string("pan-tilt: ") + e.what()};
+    }
+    const std::shared_ptr<const IcpModel> model = models_.at(ctx.target->id);
+    const CameraSpec& camera = ctx.robot().camera;
+
+    const auto started = std::chrono::steady_clock::now();
+    const Eigen::Isometry3d T_map_camera =
+        isometry_from_pose2d(localization->mean) * HeadKinematics(ctx.robot()).T_base_camera(q);
+    const Eigen::Isometry3d T_camera_model_guess = T_map_camera.inverse() * ctx.target->T_map_model;
+    bb.set(keys::kTCameraModelGuess, T_camera_model_guess);
+    const OrganizedCloud scene =
+        crop_sphere(**frame, camera.depth_to_color_m, T_camera_model_guess.translation(),
+                    model->bounding_radius_m() + settings_.crop_margin_m);
+    const std::size_t scene_points = scene.valid_count();
+    if (scene_points < static_cast<std::size_t>(settings_.min_points)) {
+      bb.erase(keys::kTCameraModel);
+      std::ostringstream why;
+      why << scene_points << " points within " << model->bounding_radius_m() + settings_.crop_margin_m
+          << " m of the expected target (at least " << settings_.min_points << " needed)";
+      if (settings_.draw) draw(ctx, **frame, scene, *model, T_camera_model_guess, nullptr);
+      return Outcome{"no_target", why.str()};
+    }
+
+    RegistrationResult result = register_scene(model, scene, T_camera_model_guess);
+    result.time_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
+    keys::AlignQuality quality;
+    quality.method = settings_.method_name;
+    quality.time_ms = result.time_ms;
+    quality.iterations = result.iterations;
+    quality.inlier_fraction = result.inlier_fraction;
+    quality.rmse_mm = result.rmse_mm;
+    bb.set(keys::kAlignQuality, quality);
+    if (settings_.draw) draw(ctx, **frame, scene, *model, T_camera_model_guess, &result);
+
+    const bool good = result.converged && result.inlier_fraction >= settings_.min_inlier_fraction &&
+                      result.rmse_mm <= settings_.max_rmse_mm;
+    ctx.log().info("align " + ctx.target->id + " (" + settings_.method_name +
+                   "): " + format_quality(result));
+    if (!good) {
+      bb.erase(keys::kTCameraModel);
+      std::ostringstream why;
+      why << "poor fit: " << format_quality(result) << " (gate: inlier fraction >= "
+          << settings_.min_inlier_fraction << ", RMSE <= " << settings_.max_rmse_mm << " mm)";
+      if (!result.converged) why << "; too few correspondences";
+      return Outcome{"poor_fit", why.str()};
+    }
+    bb.set(keys::kTCameraModel, result.T_camera_model);
+    return Outcome{"succeeded", format_quality(result)};
+  }
+
+ private:
+  RegistrationResult register_scene(const std::shared_ptr<const IcpModel>& model,
+                                    const OrganizedCloud& scene, const Eigen::Isometry3d& guess) {
+    if (settings_.method == Method::projective_icp) {
+      return align_projective_icp(*model, scene, guess, icp_options_);
+    }
+    PclOptions options;
+    options.max_iterations = static_cast<int>(settings_.pcl_max_iterations);
+    options.max_correspondence_m = settings_.pcl_max_correspondence_m;
+    const PclMethod method = settings_.method == Method::pcl_icp ? PclMethod::icp : PclMethod::gicp;
+    const PclRegistration pcl(model, method, options);
+    return pcl.align(scene, guess, icp_options_);
+  }
+
+  void draw(Context& ctx, const DepthFrame& frame, const OrganizedCloud& scene,
+            const IcpModel& model, const Eigen::Isometry3d& guess,
+            const RegistrationResult* result) const {
+    if (ctx.target_dir.empty()) return;
+    try {
+      write_alignment_image(ctx.target_dir / "alignment.png", frame, scene, model, guess,
+                            result ? &result->T_camera_model : nullptr);
+    } catch (const std::exception& e) {
+      ctx.log().warning(std::string("align: cannot write alignment.png: ") + e.what());
+    }
+  }
+
+  Settings settings_;
+  IcpOptions icp_options_;
+  std::map<std::string, std::shared_ptr<const IcpModel>> models_;
+};
+
+const projtour_param_desc kAlignParams[] = {
+    {"method", "string", "projective_icp", "projective_icp | pcl_icp | pcl_gicp"},
+    {"model_spacing_m", "number", "0.003", "spacing of the points resampled on the model"},
+    {"crop_margin_m", "number", "0.1",
+     "the frame is cropped to the model's bounding sphere plus this around the guess"},
+    {"min_points", "integer", "500", "fewer points in the crop: no_target"},
+    {"min_inlier_fraction", "number", "0.6", "quality gate: less is a poor_fit"},
+    {"max_rmse_mm", "number", "5.0", "quality gate: more is a poor_fit"},
+    {"inlier_distance_m", "number", "0.006",
+     "a visible model point within this of its scene point is an inlier"},
+    {"pcl_max_iterations", "integer", "50", "pcl_icp / pcl_gicp: iteration limit"},
+    {"pcl_max_correspondence_m", "number", "0.1", "pcl_icp / pcl_gicp: correspondence distance"},
+    {"draw", "boolean", "true", "write alignment.png into the target's folder"},
+};
+const char* const kAlignOutcomes[] = {"succeeded", "poor_fit", "no_target"};
+const projtour_kind_desc kKinds[] = {behaviour_kind<Align>(
+    "align", "ICP of the target's model against the captured depth frame", kAlignParams,
+    kAlignOutcomes, &validate)};
+
+}  // namespace
+}  // namespace projtour::align
+
+PROJTOUR_PLUGIN("align", "1.0.0", projtour::align::kKinds)

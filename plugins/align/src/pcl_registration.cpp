@@ -1,0 +1,111 @@
+// The only translation unit that instantiates PCL's registration templates.
+#include "pcl_registration.hpp"
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl/registration/gicp.h>
+#include <pcl/registration/icp.h>
+
+#include <chrono>
+
+namespace projtour::align {
+
+namespace {
+
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+// PCL keeps the iteration count protected; the report wants it.
+template <typename Base>
+class Counting : public Base {
+ public:
+  int iterations() const { return this->nr_iterations_; }
+};
+using Icp = Counting<pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ, float>>;
+using Gicp = Counting<pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ>>;
+
+}  // namespace
+
+const char* to_string(PclMethod method) { return method == PclMethod::icp ? "pcl_icp" : "pcl_gicp"; }
+
+struct PclRegistration::Impl {
+  std::shared_ptr<const IcpModel> model;
+  PclMethod method;
+  PclOptions options;
+  Cloud::Ptr source{new Cloud};
+};
+
+PclRegistration::PclRegistration(std::shared_ptr<const IcpModel> model, PclMethod method,
+                                 const PclOptions& options)
+    : impl_(new Impl{std::move(model), method, options}) {
+  const auto& points = impl_->model->points();
+  const std::size_t n = std::min(points.size(), options.max_model_points);
+  impl_->source->reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    impl_->source->push_back(pcl::PointXYZ(points[i].x(), points[i].y(), points[i].z()));
+  }
+}
+
+PclRegistration::~PclRegistration() = default;
+
+namespace {
+
+template <typename Registration>
+void configure(Registration& reg, const PclOptions& options) {
+  reg.setMaximumIterations(options.max_iterations);
+  reg.setMaxCorrespondenceDistance(options.max_correspondence_m);
+  reg.setTransformationEpsilon(options.transformation_epsilon);
+  reg.setEuclideanFitnessEpsilon(1e-10);
+}
+
+}  // namespace
+
+RegistrationResult PclRegistration::align(const OrganizedCloud& scene,
+                                          const Eigen::Isometry3d& T_camera_model_guess,
+                                          const IcpOptions& quality_options) const {
+  const auto started = std::chrono::steady_clock::now();
+  Cloud::Ptr target(new Cloud);
+  target->reserve(scene.points.size());
+  for (const Eigen::Vector3f& p : scene.points) {
+    if (OrganizedCloud::valid(p)) target->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+  }
+  RegistrationResult result;
+  result.T_camera_model = T_camera_model_guess;
+  if (target->size() < 10) {
+    result.scene_points = target->size();
+    return result;
+  }
+  const Eigen::Matrix4f guess = T_camera_model_guess.matrix().cast<float>();
+  Cloud aligned;
+  Eigen::Matrix4f final_transform;
+  bool converged = false;
+  int iterations = 0;
+  if (impl_->method == PclMethod::icp) {
+    Icp icp;
+    configure(icp, impl_->options);
+    icp.setInputSource(impl_->source);
+    icp.setInputTarget(target);
+    icp.align(aligned, guess);
+    converged = icp.hasConverged();
+    final_transform = icp.getFinalTransformation();
+    iterations = icp.iterations();
+  } else {
+    Gicp gicp;
+    configure(gicp, impl_->options);
+    gicp.setInputSource(impl_->source);
+    gicp.setInputTarget(target);
+    gicp.align(aligned, guess);
+    converged = gicp.hasConverged();
+    final_transform = gicp.getFinalTransformation();
+    iterations = gicp.iterations();
+  }
+  Eigen::Isometry3d T(final_transform.cast<double>());
+  T.linear() = Eigen::Quaterniond(T.linear()).normalized().toRotationMatrix();
+  result = evaluate_alignment(*impl_->model, scene, T, quality_options);
+  result.converged = converged;
+  result.iterations = iterations;
+  result.time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
+  return result;
+}
+
+}  // namespace projtour::align

@@ -1,0 +1,267 @@
+#include "navigate.hpp"
+
+#include <mrpt/maps/COccupancyGridMap2D.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "projtour/blackboard_keys.hpp"
+#include "projtour/localizer.hpp"
+#include "projtour/occupancy_map.hpp"
+
+namespace projtour::navigate {
+
+namespace {
+
+// Turn in place rather than drive when the carrot is this far off the heading.
+constexpr double kTurnInPlaceRad = 0.9;
+// Slow down over the last stretch so the stop lands within tolerance.
+constexpr double kApproachGain = 0.8;  // (m/s) per m
+constexpr double kMinApproachSpeedMps = 0.04;
+constexpr double kTurnGain = 1.5;  // (rad/s) per rad
+constexpr double kMinTurnRateRadps = 0.05;
+// Aim for a fraction of the tolerance so the estimate's jitter does not push it out again.
+constexpr double kAimFraction = 0.4;
+// Counts as progress.
+constexpr double kProgressM = 0.05;
+constexpr double kReplanPeriodS = 1.0;
+
+double clamp(double v, double limit) {
+  return std::max(-limit, std::min(limit, v));
+}
+
+}  // namespace
+
+Navigate::Navigate(const Params& params, const RunContext& run)
+    : tolerance_m_(params.number("tolerance_m")),
+      tolerance_rad_(deg_to_rad(params.number("tolerance_deg"))),
+      lookahead_m_(params.number("lookahead_m")),
+      max_speed_mps_(params.number("max_speed_mps")),
+      max_turn_rate_radps_(deg_to_rad(params.number("max_turn_rate_dps"))),
+      blocked_s_(params.number("blocked_s")),
+      timeout_s_(params.number("timeout_s")),
+      lost_std_m_(params.number("lost_std_m")),
+      obstacle_lookahead_m_(params.number("obstacle_lookahead_m")) {
+  if (!run.map) throw std::runtime_error("navigate needs the mission's map");
+  const double radius_m = run.mission != nullptr ? run.mission->robot.base.radius_m : 0.35;
+  if (run.mission != nullptr) {
+    // Zero means "as fast as the robot file allows".
+    if (max_speed_mps_ <= 0.0) max_speed_mps_ = run.mission->robot.base.max_speed_mps;
+    if (max_turn_rate_radps_ <= 0.0) {
+      max_turn_rate_radps_ = deg_to_rad(run.mission->robot.base.max_turn_rate_dps);
+    }
+  }
+  if (max_speed_mps_ <= 0.0) max_speed_mps_ = 0.5;
+  if (max_turn_rate_radps_ <= 0.0) max_turn_rate_radps_ = deg_to_rad(60.0);
+  map_planner_ = std::make_shared<const PathPlanner>(*run.map, radius_m);
+}
+
+void Navigate::command(Context& ctx, double v_mps, double w_radps) {
+  ctx.drivers().base->command_velocity(v_mps, w_radps);
+}
+
+void Navigate::start(Context& ctx) {
+  if (ctx.target == nullptr) throw std::runtime_error("navigate runs for a target");
+  if (!ctx.drivers().base) throw std::runtime_error("navigate needs a base driver");
+  // The projector stays dark while the base moves.
+  if (ctx.drivers().projector) ctx.drivers().projector->blank();
+  goal_ = standoff_pose(*ctx.target);
+  planner_ = std::make_unique<PathPlanner>(*map_planner_);
+  path_ = PlannedPath{};
+  progress_index_ = 0;
+  final_turn_ = false;
+  start_s_ = ctx.now_s();
+  last_progress_s_ = start_s_;
+  last_replan_s_ = -1e9;
+  best_remaining_m_ = std::numeric_limits<double>::infinity();
+}
+
+bool Navigate::replan(Context& ctx, const Pose2D& from) {
+  last_replan_s_ = ctx.now_s();
+  auto path = planner_->plan({from.x_m, from.y_m}, {goal_.x_m, goal_.y_m});
+  if (!path) return false;
+  path_ = std::move(*path);
+  progress_index_ = 0;
+  std::vector<Pose2D> poses;
+  for (std::size_t i = 0; i < path_.points_m.size(); ++i) {
+    const Eigen::Vector2d& p = path_.points_m[i];
+    Eigen::Vector2d d = Eigen::Vector2d::UnitX();
+    if (i + 1 < path_.points_m.size()) {
+      d = path_.points_m[i + 1] - p;
+    } else if (i > 0) {
+      d = p - path_.points_m[i - 1];
+    }
+    poses.push_back(Pose2D{p.x(), p.y(), std::atan2(d.y(), d.x())});
+  }
+  if (!poses.empty()) poses.back().yaw_rad = goal_.yaw_rad;
+  ctx.blackboard().set(keys::kPlannedPath, poses);
+  return true;
+}
+
+double Navigate::remaining_m(const Pose2D& pose) {
+  const Eigen::Vector2d p(pose.x_m, pose.y_m);
+  // Advance along the path while the next point is closer: the path never goes backwards.
+  const std::size_t window_end = std::min(path_.points_m.size(), progress_index_ + 15);
+  std::size_t best = progress_index_;
+  for (std::size_t i = progress_index_; i < window_end; ++i) {
+    if ((path_.points_m[i] - p).norm() < (path_.points_m[best] - p).norm()) best = i;
+  }
+  progress_index_ = best;
+  double left_m = (path_.points_m[best] - p).norm();
+  for (std::size_t i = best + 1; i < path_.points_m.size(); ++i) {
+    left_m += (path_.points_m[i] - path_.points_m[i - 1]).norm();
+  }
+  return left_m;
+}
+
+std::vector<Eigen::Vector2d> Navigate::obstacles_on_path(Context& ctx, const Pose2D& pose) const {
+  std::vector<Eigen::Vector2d> hits;
+  const auto scan = ctx.blackboard().get<LaserScan>(keys::kLaserScan);
+  if (!scan || path_.points_m.empty()) return hits;
+  const Eigen::Isometry3d T_map_laser = isometry_from_pose2d(pose) * scan->T_base_laser;
+  const InflatedGrid& grid = map_planner_->grid();
+  const double clearance_m = grid.robot_radius_m() + 0.05;
+  const Eigen::Vector2d robot(pose.x_m, pose.y_m);
+  for (std::size_t i = 0; i < scan->ranges_m.size(); ++i) {
+    if (i < scan->valid.size() && !scan->valid[i]) continue;
+    const double r = scan->ranges_m[i];
+    if (!(r > 0.0) || r >= scan->max_range_m || r > obstacle_lookahead_m_ + clearance_m) continue;
+    const double a = scan->angle_min_rad + i * scan->angle_increment_rad;
+    const Eigen::Vector3d p_map =
+        T_map_laser * Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0);
+    const Eigen::Vector2d p = p_map.head<2>();
+    // What the map already has is planned around; only new things block.
+    if (!grid.is_free_space(p)) continue;
+    double along_m = 0.0;
+    for (std::size_t k = progress_index_; k + 1 < path_.points_m.size(); ++k) {
+      const Eigen::Vector2d a_m = path_.points_m[k], b_m = path_.points_m[k + 1];
+      const Eigen::Vector2d ab = b_m - a_m;
+      const double t =
+          ab.squaredNorm() > 0 ? std::clamp((p - a_m).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
+      if ((a_m + t * ab - p).norm() < clearance_m && (p - robot).norm() > 0.05) {
+        hits.push_back(p);
+        break;
+      }
+      along_m += ab.norm();
+      if (along_m > obstacle_lookahead_m_) break;
+    }
+  }
+  return hits;
+}
+
+std::optional<Outcome> Navigate::tick(Context& ctx) {
+  if (ctx.cancel_requested()) {
+    command(ctx, 0, 0);
+    return Outcome{kOutcomeCancelled, "cancelled"};
+  }
+  const double now_s = ctx.now_s();
+  const auto estimate = ctx.blackboard().get<PoseEstimate2D>(keys::kLocalization);
+  if (!estimate) {
+    command(ctx, 0, 0);
+    return Outcome{kOutcomeFailed, "no localization estimate on the blackboard"};
+  }
+  const Pose2D pose = estimate->mean;
+  if (position_std_m(*estimate) > lost_std_m_) {
+    command(ctx, 0, 0);
+    return Outcome{"lost", "localization standard deviation " +
+                               std::to_string(position_std_m(*estimate)) + " m exceeds " +
+                               std::to_string(lost_std_m_) + " m"};
+  }
+  if (now_s - start_s_ > timeout_s_) {
+    command(ctx, 0, 0);
+    return Outcome{"timeout", "goal not reached within " + std::to_string(timeout_s_) + " s"};
+  }
+
+  if (path_.points_m.empty()) {
+    if (!replan(ctx, pose)) {
+      command(ctx, 0, 0);
+      return Outcome{"unreachable", "no path to the stand-off pose (" + std::to_string(goal_.x_m) +
+                                        ", " + std::to_string(goal_.y_m) + ")"};
+    }
+  }
+
+  const Eigen::Vector2d to_goal(goal_.x_m - pose.x_m, goal_.y_m - pose.y_m);
+  const double goal_dist_m = to_goal.norm();
+  const double yaw_error_rad = wrap_angle_rad(goal_.yaw_rad - pose.yaw_rad);
+  // Done once the final turn has brought the heading well inside the tolerance, so the stop is
+  // not on the edge of it.
+  if (final_turn_ && goal_dist_m <= tolerance_m_ &&
+      std::abs(yaw_error_rad) <= kAimFraction * tolerance_rad_) {
+    command(ctx, 0, 0);
+    return Outcome{"succeeded", ""};
+  }
+
+  // Progress: path left plus the heading still to turn once there.
+  const double remaining =
+      remaining_m(pose) + (final_turn_ ? 0.3 * std::abs(yaw_error_rad) : 0.3 * kPi);
+  if (remaining < best_remaining_m_ - kProgressM) {
+    best_remaining_m_ = remaining;
+    last_progress_s_ = now_s;
+  } else if (now_s - last_progress_s_ > blocked_s_) {
+    command(ctx, 0, 0);
+    return Outcome{"blocked", "no progress for " + std::to_string(blocked_s_) + " s"};
+  }
+
+  if (!final_turn_) {
+    const auto obstacles = obstacles_on_path(ctx, pose);
+    if (!obstacles.empty()) {
+      command(ctx, 0, 0);
+      if (now_s - last_replan_s_ >= kReplanPeriodS) {
+        planner_->grid().add_obstacles(obstacles);
+        if (!replan(ctx, pose)) {
+          // Perhaps it moves away: forget what was seen and try again next period.
+          planner_ = std::make_unique<PathPlanner>(*map_planner_);
+        }
+      }
+      return std::nullopt;
+    }
+  }
+
+  if (goal_dist_m <= kAimFraction * tolerance_m_) final_turn_ = true;
+  if (final_turn_ && goal_dist_m > tolerance_m_) final_turn_ = false;
+  if (final_turn_) {
+    const double w = clamp(kTurnGain * yaw_error_rad, max_turn_rate_radps_);
+    command(ctx, 0, std::copysign(std::max(std::abs(w), kMinTurnRateRadps), w));
+    return std::nullopt;
+  }
+
+  // Pure pursuit: steer for the point lookahead_m along the path (the goal itself at the end).
+  const Eigen::Vector2d position(pose.x_m, pose.y_m);
+  Eigen::Vector2d carrot = path_.points_m.back();
+  for (std::size_t i = progress_index_; i < path_.points_m.size(); ++i) {
+    if ((path_.points_m[i] - position).norm() >= lookahead_m_) {
+      carrot = path_.points_m[i];
+      break;
+    }
+  }
+  const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
+  const Eigen::Vector2d d = carrot - position;
+  const double local_x = c * d.x() + s * d.y(), local_y = -s * d.x() + c * d.y();
+  const double alpha = std::atan2(local_y, local_x);
+  const double distance_m = std::max(1e-3, d.norm());
+  if (std::abs(alpha) > kTurnInPlaceRad) {
+    command(ctx, 0, clamp(kTurnGain * alpha, max_turn_rate_radps_));
+    return std::nullopt;
+  }
+  double v = std::min(max_speed_mps_, std::max(kMinApproachSpeedMps, kApproachGain * goal_dist_m));
+  v *= std::cos(alpha);
+  double w = 2.0 * v * std::sin(alpha) / distance_m;
+  if (std::abs(w) > max_turn_rate_radps_) {
+    v *= max_turn_rate_radps_ / std::abs(w);
+    w = clamp(w, max_turn_rate_radps_);
+  }
+  command(ctx, v, w);
+  return std::nullopt;
+}
+
+void Navigate::stop(Context& ctx) {
+  if (ctx.drivers().base) command(ctx, 0, 0);
+}
+
+void Navigate::pause(Context& ctx) {
+  if (ctx.drivers().base) command(ctx, 0, 0);
+}
+
+}  // namespace projtour::navigate

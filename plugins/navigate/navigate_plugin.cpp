@@ -1,0 +1,57 @@
+// Plugin `navigate`: behaviours navigate and relocalize.
+#include "navigate.hpp"
+#include "projtour/plugin_author.hpp"
+
+namespace projtour::navigate {
+namespace {
+
+int validate_navigate(const void* raw, char* error, size_t error_size) {
+  const Params& p = *static_cast<const Params*>(raw);
+  std::string why;
+  for (const char* name : {"tolerance_m", "tolerance_deg", "lookahead_m", "blocked_s", "timeout_s",
+                           "lost_std_m", "obstacle_lookahead_m"}) {
+    if (!(p.number(name) > 0.0)) {
+      why = std::string(name) + ": expected a positive number";
+      break;
+    }
+  }
+  if (why.empty()) return 0;
+  plugin_detail::copy_message(why.c_str(), error, error_size);
+  return 1;
+}
+
+const projtour_param_desc kNavigateParams[] = {
+    {"tolerance_m", "number", "0.10", "succeed when the estimate is this close to the goal"},
+    {"tolerance_deg", "number", "5", "and its heading this close"},
+    {"lookahead_m", "number", "0.6", "pure pursuit lookahead distance"},
+    {"max_speed_mps", "number", "0", "speed limit (0: the robot file's)"},
+    {"max_turn_rate_dps", "number", "0", "turn rate limit (0: the robot file's)"},
+    {"blocked_s", "number", "15", "blocked after this long without progress"},
+    {"timeout_s", "number", "600", "give up after this long"},
+    {"lost_std_m", "number", "0.5", "lost when the position standard deviation exceeds this"},
+    {"obstacle_lookahead_m", "number", "1.5", "look for obstacles this far along the path"},
+};
+const char* const kNavigateOutcomes[] = {"succeeded", "unreachable", "blocked", "timeout", "lost"};
+
+const projtour_param_desc kRelocalizeParams[] = {
+    {"widen_m", "number", "1.0", "spread the particle cloud by this much"},
+    {"spin_rate_dps", "number", "30", "turn rate while spinning"},
+    {"give_up_s", "number", "40", "lost after this long without converging"},
+    {"settle_s", "number", "3", "converged for this long before succeeding"},
+    {"converged_std_m", "number", "0.15", "converged below this position standard deviation"},
+};
+const char* const kRelocalizeOutcomes[] = {"succeeded", "lost"};
+
+const projtour_kind_desc kKinds[] = {
+    projtour::behaviour_kind<Navigate>(
+        "navigate", "plan to the target's stand-off pose on the inflated grid and drive there",
+        kNavigateParams, kNavigateOutcomes, &validate_navigate),
+    projtour::behaviour_kind<Relocalize>(
+        "relocalize", "spin in place with a widened particle cloud until localization converges",
+        kRelocalizeParams, kRelocalizeOutcomes),
+};
+
+}  // namespace
+}  // namespace projtour::navigate
+
+PROJTOUR_PLUGIN("navigate", "1.0.0", projtour::navigate::kKinds)

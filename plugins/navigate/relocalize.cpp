@@ -1,0 +1,58 @@
+#include <stdexcept>
+
+#include "navigate.hpp"
+#include "projtour/blackboard_keys.hpp"
+#include "projtour/localizer.hpp"
+
+namespace projtour::navigate {
+
+Relocalize::Relocalize(const Params& params, const RunContext&)
+    : widen_m_(params.number("widen_m")),
+      spin_rate_radps_(deg_to_rad(params.number("spin_rate_dps"))),
+      give_up_s_(params.number("give_up_s")),
+      settle_s_(params.number("settle_s")),
+      converged_std_m_(params.number("converged_std_m")) {}
+
+void Relocalize::start(Context& ctx) {
+  if (!ctx.drivers().base) throw std::runtime_error("relocalize needs a base driver");
+  if (ctx.drivers().projector) ctx.drivers().projector->blank();
+  ctx.blackboard().set(keys::kLocalizationWiden, widen_m_);
+  start_s_ = ctx.now_s();
+  converged_since_s_ = -1.0;
+}
+
+std::optional<Outcome> Relocalize::tick(Context& ctx) {
+  BaseDriver& base = *ctx.drivers().base;
+  if (ctx.cancel_requested()) {
+    base.command_velocity(0, 0);
+    return Outcome{kOutcomeCancelled, "cancelled"};
+  }
+  const double now_s = ctx.now_s();
+  const auto estimate = ctx.blackboard().get<PoseEstimate2D>(keys::kLocalization);
+  const bool widened = !ctx.blackboard().has(keys::kLocalizationWiden);  // the service took it
+  const bool converged = widened && estimate && position_std_m(*estimate) < converged_std_m_ &&
+                         ctx.blackboard().get<bool>(keys::kLocalizationConverged).value_or(false);
+  if (!converged) {
+    converged_since_s_ = -1.0;
+  } else if (converged_since_s_ < 0.0) {
+    converged_since_s_ = now_s;
+  }
+  // Converged for a while, with the laser having swept the surroundings while it held.
+  if (converged_since_s_ >= 0.0 && now_s - converged_since_s_ >= settle_s_) {
+    base.command_velocity(0, 0);
+    return Outcome{"succeeded", ""};
+  }
+  if (now_s - start_s_ > give_up_s_) {
+    base.command_velocity(0, 0);
+    return Outcome{"lost", "localization did not converge within " + std::to_string(give_up_s_) +
+                               " s of spinning"};
+  }
+  base.command_velocity(0, spin_rate_radps_);
+  return std::nullopt;
+}
+
+void Relocalize::stop(Context& ctx) {
+  if (ctx.drivers().base) ctx.drivers().base->command_velocity(0, 0);
+}
+
+}  // namespace projtour::navigate

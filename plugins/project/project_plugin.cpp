@@ -1,0 +1,223 @@
+// project: Model Points -> camera (align's T_camera_model) -> projector (the calibrated mount at
+// the measured joint angles) -> projector pixels; the content's corners go there by a homography
+// on the ideal pinhole image and the projector's lens distortion by inverse mapping; the warped
+// frame is shown for the dwell time of mission time and the projector is blanked afterwards.
+#include <cmath>
+#include <memory>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "content_source.hpp"
+#include "projtour/blackboard_keys.hpp"
+#include "projtour/kinematics.hpp"
+#include "projtour/plugin_author.hpp"
+#include "projtour/projection.hpp"
+
+namespace projtour {
+namespace {
+
+std::string fmt_quad(const Quad2d& q) {
+  std::ostringstream s;
+  s.precision(1);
+  s << std::fixed;
+  for (int i = 0; i < 4; ++i) s << (i ? " " : "") << "(" << q[i].x() << ", " << q[i].y() << ")";
+  return s.str();
+}
+
+class Project : public Behaviour {
+ public:
+  Project(const Params& params, const RunContext& run)
+      : dwell_param_s_(params.number("dwell_s")),
+        planarity_warn_mm_(params.number("planarity_warn_mm")),
+        min_area_px2_(params.number("min_area_px2")) {
+    if (run.mission == nullptr) throw std::invalid_argument("project needs the mission's robot");
+    if (params.boolean("track")) {
+      throw std::invalid_argument("project: `track` (live re-alignment) is not available yet");
+    }
+    kinematics_ = std::make_unique<HeadKinematics>(run.mission->robot);
+    // The undistortion maps depend only on the projector: computed once for the whole tour.
+    warper_ = std::make_unique<ContentWarper>(run.mission->robot.projector.intrinsics);
+  }
+
+  void start(Context& ctx) override {
+    early_.reset();
+    showing_ = false;
+    paused_ = false;
+    paused_total_s_ = 0.0;
+    content_.reset();
+    if (ctx.target == nullptr) throw std::runtime_error("project runs only inside a visit");
+    early_ = prepare(ctx);
+    if (early_) return;
+    t_start_s_ = ctx.now_s();
+    ctx.blackboard().set<double>(keys::kProjectedSeconds, 0.0);
+    show_current(ctx, /*force=*/true);
+    if (!ctx.target_dir.empty()) {
+      const std::filesystem::path file = ctx.target_dir / "projector.png";
+      if (!cv::imwrite(file.string(), last_frame_)) {
+        ctx.log().warning("target " + ctx.target->id + ": cannot write " + file.string());
+      }
+    }
+  }
+
+  std::optional<Outcome> tick(Context& ctx) override {
+    if (early_) return early_;
+    if (ctx.cancel_requested()) {
+      finish(ctx);
+      return Outcome{kOutcomeCancelled, "cancelled while projecting"};
+    }
+    if (paused_) return std::nullopt;
+    const double shown_s = elapsed_s(ctx);
+    ctx.blackboard().set<double>(keys::kProjectedSeconds, std::min(shown_s, dwell_s_));
+    if (shown_s >= dwell_s_) {
+      finish(ctx);
+      std::ostringstream s;
+      s.precision(1);
+      s << std::fixed << "projected on " << ctx.target->id << " for " << dwell_s_ << " s";
+      return Outcome{"succeeded", s.str()};
+    }
+    if (content_->is_video()) show_current(ctx, /*force=*/false);
+    return std::nullopt;
+  }
+
+  void stop(Context& ctx) override {
+    if (showing_) finish(ctx);
+    if (ctx.drivers().projector) {
+      try {
+        ctx.drivers().projector->blank();
+      } catch (const std::exception& e) {
+        ctx.log().error(std::string("project: blanking failed: ") + e.what());
+      }
+    }
+  }
+
+  void pause(Context& ctx) override {
+    if (!showing_ || paused_) return;
+    paused_ = true;
+    paused_at_s_ = ctx.now_s();
+    ctx.drivers().projector->blank();
+  }
+  void resume(Context& ctx) override {
+    if (!paused_) return;
+    paused_ = false;
+    paused_total_s_ += ctx.now_s() - paused_at_s_;
+    ctx.drivers().projector->show(last_frame_);
+  }
+
+ private:
+  // Everything up to the first frame; an outcome when the target cannot be projected on.
+  std::optional<Outcome> prepare(Context& ctx) {
+    const TargetSpec& target = *ctx.target;
+    const std::string who = "target " + target.id + ": ";
+    dwell_s_ = dwell_param_s_ >= 0 ? dwell_param_s_ : target.dwell_s;
+    if (!ctx.drivers().projector) return Outcome{kOutcomeFailed, who + "no projector driver"};
+    if (!ctx.drivers().pan_tilt) return Outcome{kOutcomeFailed, who + "no pan-tilt driver"};
+    const auto T_camera_model = ctx.blackboard().get<Eigen::Isometry3d>(keys::kTCameraModel);
+    if (!T_camera_model) {
+      return Outcome{kOutcomeFailed,
+                     who + "no aligned pose on the blackboard (" + keys::kTCameraModel + ")"};
+    }
+    const PinholeModel& projector = ctx.robot().projector.intrinsics;
+    const Eigen::Isometry3d T_projector_camera =
+        kinematics_->T_projector_camera(ctx.drivers().pan_tilt->measured());
+
+    // Where the content would land from the guess alone: the report's "before alignment".
+    if (const auto guess = ctx.blackboard().get<Eigen::Isometry3d>(keys::kTCameraModelGuess)) {
+      const ProjectedQuad before =
+          project_model_points(target.model_points, T_projector_camera * *guess, projector);
+      if (before.in_front) ctx.blackboard().set<Quad2d>(keys::kPixelsBeforeAlign, before.pixels);
+    }
+    const ProjectedQuad quad =
+        project_model_points(target.model_points, T_projector_camera * *T_camera_model, projector);
+    if (quad.in_front) ctx.blackboard().set<Quad2d>(keys::kPixelsAfterAlign, quad.pixels);
+    if (!quad.on_screen) return Outcome{"off_screen", who + quad.problem};
+
+    const std::string degenerate = quad_problem(quad.ideal_pixels, min_area_px2_);
+    if (!degenerate.empty()) {
+      return Outcome{kOutcomeFailed, who + "degenerate projection quadrilateral (" + degenerate +
+                                         ") at pixels " + fmt_quad(quad.pixels)};
+    }
+    const double residual_mm = planarity_residual_m(target.model_points) * 1e3;
+    if (residual_mm > planarity_warn_mm_) {
+      std::ostringstream s;
+      s.precision(1);
+      s << std::fixed << who << "Model Points are not coplanar: " << residual_mm
+        << " mm from their best-fit plane (warning above " << planarity_warn_mm_
+        << " mm); projecting anyway, the content will not lie flat between them";
+      ctx.log().warning(s.str());
+    }
+    try {
+      content_ = std::make_unique<ContentSource>(target.content);
+    } catch (const std::exception& e) {
+      return Outcome{kOutcomeFailed, who + e.what()};
+    }
+    warper_->set_target(content_->size(), quad);
+    return std::nullopt;
+  }
+
+  double elapsed_s(const Context& ctx) const { return ctx.now_s() - t_start_s_ - paused_total_s_; }
+
+  void show_current(Context& ctx, bool force) {
+    bool changed = false;
+    const cv::Mat& frame = content_->frame_at(elapsed_s(ctx), &changed);
+    if (!changed && !force) return;
+    last_frame_ = warper_->warp(frame);
+    ctx.drivers().projector->show(last_frame_);
+    showing_ = true;
+  }
+
+  void finish(Context& ctx) {
+    if (!showing_) return;
+    showing_ = false;
+    const double end_s = paused_ ? paused_at_s_ : ctx.now_s();
+    const double shown_s = std::min(end_s - t_start_s_ - paused_total_s_, dwell_s_);
+    ctx.blackboard().set<double>(keys::kProjectedSeconds, std::max(0.0, shown_s));
+    ctx.drivers().projector->blank();
+  }
+
+  double dwell_param_s_;
+  double planarity_warn_mm_;
+  double min_area_px2_;
+  std::unique_ptr<HeadKinematics> kinematics_;
+  std::unique_ptr<ContentWarper> warper_;
+  std::unique_ptr<ContentSource> content_;
+  std::optional<Outcome> early_;
+  cv::Mat last_frame_;
+  double dwell_s_ = 0.0;
+  double t_start_s_ = 0.0;
+  bool showing_ = false;
+  bool paused_ = false;
+  double paused_at_s_ = 0.0;
+  double paused_total_s_ = 0.0;
+};
+
+int validate(const void* params_ptr, char* error, size_t error_size) {
+  const Params& params = *static_cast<const Params*>(params_ptr);
+  if (params.number("planarity_warn_mm") < 0 || params.number("min_area_px2") < 0) {
+    plugin_detail::copy_message("planarity_warn_mm and min_area_px2 must be >= 0", error,
+                                error_size);
+    return 1;
+  }
+  if (params.boolean("track")) {
+    plugin_detail::copy_message("track (live re-alignment) is not available yet", error,
+                                error_size);
+    return 1;
+  }
+  return 0;
+}
+
+const projtour_param_desc kParams[] = {
+    {"dwell_s", "number", "-1", "seconds to show the content; negative = the target's dwell_s"},
+    {"track", "boolean", "false",
+     "re-capture and re-align while showing, re-warping when the pose moves"},
+    {"planarity_warn_mm", "number", "5",
+     "warn when the Model Points lie farther than this from a common plane"},
+    {"min_area_px2", "number", "100", "smaller projected quadrilaterals count as zero area"}};
+const char* const kOutcomes[] = {"succeeded", "off_screen"};
+const projtour_kind_desc kKinds[] = {behaviour_kind<Project>(
+    "project", "warp the content onto the Model Points and show it for the dwell time", kParams,
+    kOutcomes, &validate)};
+
+}  // namespace
+}  // namespace projtour
+
+PROJTOUR_PLUGIN("project", "1.0.0", projtour::kKinds)

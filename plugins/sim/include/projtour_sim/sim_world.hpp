@@ -1,0 +1,112 @@
+#pragma once
+// The simulated world of a dry run: one per run, shared by the five simulated drivers (the first
+// one created makes it, the others attach). It advances once per distinct mission time, knows
+// the truth (true base pose, true head, true target meshes and poses, the true camera-projector
+// calibration) and referees the projection.
+//
+// World-file keys it reads (WorldSpec, see examples/worlds/atrium_faults.yaml): targets (true
+// poses), target_offset, noise (odometry, laser, encoders, depth), model_error, calibration_error
+// and faults. Fault numbers, all optional:
+//   frame_dropout      fraction (0.5)        share of frames delivered empty
+//   target_missing     -                     the target is not there at all
+//   occluder           distance_m (0.5), width_m (0.4), height_m (0.4)
+//                      a hanging board (above the laser plane) that far in front of the target
+//   blocked_path       size_m (0.6)          a box on the target's stand-off pose (laser sees it)
+//   kidnap             distance_m (1.0)      the true pose jumps when the robot arrives
+//   camera_disconnect  after_frames (0)      grab() throws after that many frames
+//   projector_failure  after_shows (0)       show() throws after that many shows
+// Faults other than the static obstacles (target_missing, occluder, blocked_path) act while
+// their target is the one the robot is at: the nearest target within its stand-off + 1.5 m.
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "projtour/context.hpp"
+#include "projtour/drivers.hpp"
+#include "projtour/ground_truth.hpp"
+
+namespace cv {
+class Mat;
+}
+
+namespace projtour::sim {
+
+struct ProjectorEvent {
+  double t_s = 0.0;
+  bool shown = false;  // false: blanked
+  bool base_moving = false;
+  bool head_moving = false;
+  std::string target;  // the active target, "" when none
+};
+
+class SimWorld : public GroundTruth {
+ public:
+  // The world of this run, created on first use (keyed by the RunContext's address).
+  static std::shared_ptr<SimWorld> attach(const RunContext& run);
+  explicit SimWorld(const RunContext& run);
+  ~SimWorld() override;
+  SimWorld(const SimWorld&) = delete;
+  SimWorld& operator=(const SimWorld&) = delete;
+
+  // Advances to mission time t_s; repeated or older times are ignored.
+  void advance(double t_s);
+  double time_s() const;
+
+  // Base.
+  void set_velocity_time_constant(double tau_s);
+  void command_velocity(double v_mps, double w_radps);
+  Odometry odometry() const;
+  bool base_blocked() const;  // the last motion step ran into an obstacle
+  bool base_moving() const;
+
+  // Laser.
+  std::optional<LaserScan> take_scan();
+
+  // Pan-tilt.
+  void set_head_settle_time(double settle_s);
+  void command_head(const JointAngles& angles);
+  JointAngles measured_head() const;
+  bool head_reached() const;
+  bool head_moving() const;
+  JointAngles true_head() const;
+
+  // Depth camera.
+  std::optional<DepthFrame> grab();
+
+  // Projector.
+  void show(const cv::Mat& frame_bgr);
+  void blank();
+  bool is_blank() const;
+  const std::vector<ProjectorEvent>& projector_log() const;
+  // Mission seconds the projector was lit while the base or the head moved (should stay 0).
+  double lit_while_moving_s() const;
+
+  // The target whose faults act now ("" when none).
+  std::string active_target() const;
+  // Teleports the true base (tests and the kidnap fault); odometry does not notice.
+  void set_true_base_pose(const Pose2D& pose);
+
+  // GroundTruth.
+  Eigen::Isometry3d true_T_map_base() const override;
+  Eigen::Isometry3d true_T_map_camera() const override;
+  Eigen::Isometry3d true_T_map_model(const std::string& target_id) const override;
+  // The true projector pose: the robot file's mount perturbed by the calibration error.
+  Eigen::Isometry3d true_T_map_projector() const;
+  // A ray that misses the true mesh is met with the plane of the true Model Points instead.
+  std::optional<ProjectionTruth> evaluate_projection(
+      const std::string& target_id,
+      const std::array<Eigen::Vector2d, 4>& projector_px) const override;
+  void write_projection_views(const std::string& target_id,
+                              const std::array<Eigen::Vector2d, 4>& pixels_before_align,
+                              const std::array<Eigen::Vector2d, 4>& pixels_after_align,
+                              const std::filesystem::path& dir) const override;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace projtour::sim

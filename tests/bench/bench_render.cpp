@@ -1,0 +1,73 @@
+// One 640x480 depth frame of 4 bunnies, the walls of a room and the floor, on one thread.
+#include <benchmark/benchmark.h>
+
+#include <random>
+
+#include "../sim/sim_test_scenes.hpp"
+#include "projtour/model.hpp"
+#include "projtour_sim/depth_renderer.hpp"
+#include "projtour_sim/kinect_noise.hpp"
+
+namespace {
+
+using namespace projtour;
+
+struct BenchScene {
+  sim::Scene scene;
+  PinholeModel intrinsics = sim::testing::kinect_intrinsics();
+  Eigen::Isometry3d T_world_camera =
+      sim::testing::camera_optical(0.0, 0.0, 1.2, 0.0, deg_to_rad(10.0));
+
+  BenchScene() {
+    const TriangleMesh bunny =
+        load_mesh(std::string(PROJTOUR_SOURCE_DIR) + "/examples/models/bunny.ply");
+    sim::SceneBuilder builder;
+    for (int k = 0; k < 4; ++k) {
+      // Facing the camera (+x of the model towards -x of the world), side by side.
+      builder.add_mesh(bunny, isometry_from_xyz_rpy(1.6, -0.75 + 0.5 * k, 0.9, 0, 0, kPi), 2 + k);
+    }
+    builder.set_floor(0.0, 0);
+    builder.add_occupancy_walls(*sim::testing::room_grid(-1.0, 3.5, -2.5, 2.5), 2.0, 1);
+    scene = builder.build();
+  }
+};
+
+const BenchScene& bench_scene() {
+  static const BenchScene s;
+  return s;
+}
+
+void BM_RenderIdeal(benchmark::State& state) {
+  const BenchScene& s = bench_scene();
+  const sim::DepthRenderer renderer(s.intrinsics);
+  sim::IdealDepth ideal;
+  for (auto _ : state) {
+    renderer.render(s.scene, s.T_world_camera, ideal, 4.0);
+    benchmark::DoNotOptimize(ideal.depth_m.data());
+  }
+  state.counters["ms_per_frame"] =
+      benchmark::Counter(static_cast<double>(state.iterations()) * 1e-3,
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["triangles"] = static_cast<double>(s.scene.triangle_count());
+}
+BENCHMARK(BM_RenderIdeal)->Unit(benchmark::kMillisecond);
+
+void BM_RenderWithKinectNoise(benchmark::State& state) {
+  const BenchScene& s = bench_scene();
+  const sim::DepthRenderer renderer(s.intrinsics);
+  sim::IdealDepth ideal;
+  std::mt19937_64 rng(1);
+  for (auto _ : state) {
+    renderer.render(s.scene, s.T_world_camera, ideal, 4.0);
+    DepthFrame frame = sim::apply_kinect_noise(ideal, s.intrinsics, {}, rng);
+    benchmark::DoNotOptimize(frame.depth_mm.data());
+  }
+  state.counters["ms_per_frame"] =
+      benchmark::Counter(static_cast<double>(state.iterations()) * 1e-3,
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_RenderWithKinectNoise)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

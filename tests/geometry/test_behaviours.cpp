@@ -1,0 +1,299 @@
+#include <gtest/gtest.h>
+
+#include <mrpt/maps/COccupancyGridMap2D.h>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "projtour/blackboard_keys.hpp"
+#include "projtour/kinematics.hpp"
+#include "projtour/projection.hpp"
+#include "rig.hpp"
+
+using namespace projtour;
+using namespace projtour::geometry_test;
+
+namespace {
+
+const Pose2D kBase{0.3, -0.1, deg_to_rad(5)};
+
+PoseEstimate2D estimate_at(const Pose2D& p) {
+  PoseEstimate2D e;
+  e.mean = p;
+  e.covariance = Eigen::Matrix3d::Identity() * 1e-4;
+  return e;
+}
+
+// Aims the head (instantly) and puts the exact aligned pose on the blackboard.
+void aim_and_align(Rig& rig, const Eigen::Isometry3d& model_error = Eigen::Isometry3d::Identity()) {
+  const TargetSpec& t = *rig.ctx.target;
+  const HeadKinematics k(rig.mission.robot);
+  const Eigen::Vector3d p_base =
+      isometry_from_pose2d(kBase).inverse() * t.T_map_model.translation();
+  const auto q = k.aim_projector_at(p_base);
+  ASSERT_TRUE(q);
+  rig.pan_tilt->measured_ = *q;
+  rig.blackboard.set<Eigen::Isometry3d>(keys::kTCameraModel,
+                                        rig.exact_T_camera_model(kBase, t) * model_error);
+  rig.blackboard.set<Eigen::Isometry3d>(
+      keys::kTCameraModelGuess,
+      rig.exact_T_camera_model(kBase, t) * isometry_from_xyz_rpy(0.0, 0.03, 0.0, 0, 0, 0.02));
+}
+
+bool any_contains(const std::vector<std::string>& lines, const std::string& what) {
+  for (const auto& l : lines) {
+    if (l.find(what) != std::string::npos) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+// ---- aim -------------------------------------------------------------------------------------
+
+TEST(Aim, PutsTheModelPointsCentroidOnTheProjectorAxisWithProjectorBlank) {
+  Rig rig;
+  rig.blackboard.set(keys::kLocalization, estimate_at(kBase));
+  rig.projector->show(cv::Mat::zeros(800, 1280, CV_8UC3));  // something on screen before
+  auto aim = rig.make("aim", {{"settle_s", 0.5}});
+  const double t0 = rig.clock.now_s();
+  const Outcome out = rig.run(*aim);
+  ASSERT_EQ(out.name, "succeeded") << out.message;
+  ASSERT_EQ(rig.pan_tilt->commands.size(), 1u);
+  EXPECT_TRUE(rig.pan_tilt->projector_blank_at_command[0]);
+  EXPECT_GE(rig.clock.now_s() - t0, 0.5 + 3 * 0.1 - 1e-9);  // reached (3 ticks) + settle
+  const TargetSpec& t = rig.mission.targets[0];
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& p : t.model_points) centroid += p / 4.0;
+  const Eigen::Vector3d p_projector =
+      (isometry_from_pose2d(kBase) *
+       HeadKinematics(rig.mission.robot).T_base_projector(rig.pan_tilt->commands[0]))
+          .inverse() *
+      (t.T_map_model * centroid);
+  EXPECT_GT(p_projector.z(), 2.0);
+  EXPECT_LT(p_projector.head<2>().norm(), 1e-8);
+}
+
+TEST(Aim, WithoutLocalizationFailsClearly) {
+  Rig rig;
+  auto aim = rig.make("aim");
+  const Outcome out = rig.run(*aim);
+  EXPECT_EQ(out.name, "failed");
+  EXPECT_NE(out.message.find("localization"), std::string::npos) << out.message;
+  EXPECT_NE(out.message.find("front"), std::string::npos) << out.message;
+  EXPECT_TRUE(rig.pan_tilt->commands.empty());
+}
+
+TEST(Aim, TargetOverheadIsOutOfReachWithTheReason) {
+  Rig rig;
+  rig.mission.targets[0].T_map_model = isometry_from_xyz_rpy(0.6, -0.1, 6.0, 0, 0, kPi);
+  rig.blackboard.set(keys::kLocalization, estimate_at(kBase));
+  auto aim = rig.make("aim");
+  const Outcome out = rig.run(*aim);
+  EXPECT_EQ(out.name, "out_of_reach");
+  EXPECT_NE(out.message.find("tilt"), std::string::npos) << out.message;
+  EXPECT_NE(out.message.find("front"), std::string::npos) << out.message;
+}
+
+TEST(Aim, RejectsUnknownAimPoint) {
+  Rig rig;
+  EXPECT_THROW(rig.make("aim", {{"aim_at", std::string("nose")}}), std::invalid_argument);
+}
+
+// ---- project ---------------------------------------------------------------------------------
+
+TEST(Project, ShowsContentOnTheModelPointsForTheDwellThenBlanks) {
+  Rig rig;
+  aim_and_align(rig);
+  auto project = rig.make("project");
+  const double t0 = rig.clock.now_s();
+  const Outcome out = rig.run(*project);
+  ASSERT_EQ(out.name, "succeeded") << out.message;
+  EXPECT_NEAR(rig.clock.now_s() - t0, 2.0, 0.1 + 1e-9);  // the target's dwell_s
+  EXPECT_NEAR(rig.blackboard.require<double>(keys::kProjectedSeconds), 2.0, 0.1 + 1e-9);
+  EXPECT_TRUE(rig.projector->is_blank());
+  ASSERT_EQ(rig.projector->frames.size(), 1u);  // a still image is shown once
+  EXPECT_TRUE(std::filesystem::exists(rig.ctx.target_dir / "projector.png"));
+
+  const auto after = rig.blackboard.require<Quad2d>(keys::kPixelsAfterAlign);
+  const auto before = rig.blackboard.require<Quad2d>(keys::kPixelsBeforeAlign);
+  EXPECT_GT((after[0] - before[0]).norm(), 5.0);  // the guess was off by 3 cm
+  // The exact pixels of the Model Points, computed independently here.
+  const HeadKinematics k(rig.mission.robot);
+  const Eigen::Isometry3d T_projector_model =
+      k.T_projector_camera(rig.pan_tilt->measured_) *
+      rig.blackboard.require<Eigen::Isometry3d>(keys::kTCameraModel);
+  const cv::Mat& frame = rig.projector->frames[0];
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (const auto& p : after) centre += p / 4.0;
+  const cv::Vec3b colours[4] = {{0, 0, 255}, {0, 255, 0}, {255, 0, 0}, {255, 255, 255}};
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector2d expected = *rig.mission.robot.projector.intrinsics.project(
+        T_projector_model * rig.ctx.target->model_points[i]);
+    EXPECT_LT((after[i] - expected).norm(), 1e-9);
+    const Eigen::Vector2d inside = after[i] + 0.1 * (centre - after[i]);
+    EXPECT_EQ(frame.at<cv::Vec3b>(cvRound(inside.y()), cvRound(inside.x())), colours[i]) << i;
+    const Eigen::Vector2d outside = after[i] - 0.1 * (centre - after[i]);
+    EXPECT_EQ(frame.at<cv::Vec3b>(cvRound(outside.y()), cvRound(outside.x())), cv::Vec3b(0, 0, 0));
+  }
+}
+
+TEST(Project, DwellParameterOverridesTheTarget) {
+  Rig rig;
+  aim_and_align(rig);
+  auto project = rig.make("project", {{"dwell_s", 0.5}});
+  const Outcome out = rig.run(*project);
+  ASSERT_EQ(out.name, "succeeded") << out.message;
+  EXPECT_NEAR(rig.blackboard.require<double>(keys::kProjectedSeconds), 0.5, 1e-9);
+}
+
+TEST(Project, ModelPointOutsideTheImageIsOffScreen) {
+  Rig rig;
+  aim_and_align(rig, isometry_from_xyz_rpy(0.0, 1.5, 0.0, 0, 0, 0));  // 1.5 m to the side
+  auto project = rig.make("project");
+  const Outcome out = rig.run(*project);
+  EXPECT_EQ(out.name, "off_screen");
+  EXPECT_NE(out.message.find("front"), std::string::npos) << out.message;
+  EXPECT_NE(out.message.find("outside"), std::string::npos) << out.message;
+  EXPECT_TRUE(rig.projector->frames.empty());
+  EXPECT_TRUE(rig.projector->is_blank());
+}
+
+TEST(Project, UnreadableContentFailsNamingTargetAndFile) {
+  Rig rig;
+  const auto bogus = rig.dir / "not_an_image.png";
+  std::ofstream(bogus) << "this is not a PNG";
+  rig.mission.targets[0].content = bogus;
+  aim_and_align(rig);
+  auto project = rig.make("project");
+  const Outcome out = rig.run(*project);
+  EXPECT_EQ(out.name, "failed");
+  EXPECT_NE(out.message.find("target front"), std::string::npos) << out.message;
+  EXPECT_NE(out.message.find("not_an_image.png"), std::string::npos) << out.message;
+}
+
+TEST(Project, DegenerateQuadFails) {
+  Rig rig;
+  auto& mp = rig.mission.targets[0].model_points;
+  std::swap(mp[2], mp[3]);  // bow tie
+  aim_and_align(rig);
+  auto project = rig.make("project");
+  Outcome out = rig.run(*project);
+  EXPECT_EQ(out.name, "failed");
+  EXPECT_NE(out.message.find("self-crossing"), std::string::npos) << out.message;
+  EXPECT_NE(out.message.find("target front"), std::string::npos) << out.message;
+  std::swap(mp[2], mp[3]);
+  for (int i = 0; i < 4; ++i) mp[i] = Eigen::Vector3d(0.0, 0.2 - 0.1 * i, 0.0);  // collinear
+  out = rig.run(*project);
+  EXPECT_EQ(out.name, "failed");
+  EXPECT_NE(out.message.find("degenerate"), std::string::npos) << out.message;
+}
+
+TEST(Project, NonCoplanarModelPointsWarnWithResidualAndStillProject) {
+  Rig rig;
+  rig.mission.targets[0].model_points[2].x() += 0.04;  // 40 mm out of plane
+  aim_and_align(rig);
+  auto project = rig.make("project");
+  const Outcome out = rig.run(*project);
+  EXPECT_EQ(out.name, "succeeded") << out.message;
+  ASSERT_TRUE(any_contains(rig.log.warnings, "not coplanar")) << rig.log.warnings.size();
+  EXPECT_TRUE(any_contains(rig.log.warnings, "10.0 mm"));  // 40 mm / 4 from the best plane
+  EXPECT_TRUE(any_contains(rig.log.warnings, "target front"));
+}
+
+TEST(Project, CancelBlanksAndRecordsTheTimeShown) {
+  Rig rig;
+  aim_and_align(rig);
+  rig.ticks_before_cancel = 7;
+  auto project = rig.make("project");
+  const Outcome out = rig.run(*project);
+  EXPECT_EQ(out.name, "cancelled");
+  EXPECT_TRUE(rig.projector->is_blank());
+  EXPECT_NEAR(rig.blackboard.require<double>(keys::kProjectedSeconds), 0.7, 0.1 + 1e-9);
+}
+
+TEST(Project, VideoContentPlaysThroughTheDwellByMissionTime) {
+  Rig rig;
+  const auto video = rig.dir / "clip.avi";
+  {
+    cv::VideoWriter writer(video.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 10.0,
+                           cv::Size(320, 200));
+    if (!writer.isOpened()) GTEST_SKIP() << "this OpenCV cannot write MJPG video";
+    for (int i = 0; i < 10; ++i) {
+      writer.write(cv::Mat(200, 320, CV_8UC3, cv::Scalar(20 * i, 255 - 20 * i, 128)));
+    }
+  }
+  rig.mission.targets[0].content = video;
+  aim_and_align(rig);
+  auto project = rig.make("project");
+  const Outcome out = rig.run(*project, 0.05);
+  ASSERT_EQ(out.name, "succeeded") << out.message;
+  // 2 s at 10 fps over a 1 s clip: 20 frames shown, looping once.
+  EXPECT_GE(rig.projector->frames.size(), 19u);
+  EXPECT_LE(rig.projector->frames.size(), 21u);
+  EXPECT_TRUE(rig.projector->is_blank());
+}
+
+// ---- next ------------------------------------------------------------------------------------
+
+TEST(Next, MissionOrderStowsBlanksAndMarksDone) {
+  Rig rig;
+  rig.projector->show(cv::Mat::zeros(800, 1280, CV_8UC3));
+  auto next = rig.make("next");
+  Outcome out = rig.run(*next);
+  ASSERT_EQ(out.name, "succeeded") << out.message;
+  EXPECT_EQ(rig.blackboard.require<long long>(keys::kNextTargetIndex), 1);
+  EXPECT_TRUE(rig.projector->is_blank());
+  ASSERT_EQ(rig.pan_tilt->commands.size(), 1u);
+  EXPECT_NEAR(rig.pan_tilt->commands[0].tilt_rad, deg_to_rad(10), 1e-12);  // the stow angles
+  EXPECT_TRUE(rig.pan_tilt->reached());
+  auto done = rig.blackboard.require<std::vector<std::string>>(keys::kDoneTargets);
+  EXPECT_EQ(done, std::vector<std::string>{"front"});
+
+  rig.set_target(1);
+  out = rig.run(*next);
+  EXPECT_EQ(rig.blackboard.require<long long>(keys::kNextTargetIndex), 2);
+  rig.set_target(2);
+  out = rig.run(*next);
+  EXPECT_EQ(out.name, "finished") << out.message;
+  done = rig.blackboard.require<std::vector<std::string>>(keys::kDoneTargets);
+  EXPECT_EQ(done, (std::vector<std::string>{"front", "left", "far"}));
+}
+
+TEST(Next, NearestByPathLengthNotStraightLine) {
+  Rig rig;
+  // 12 x 12 m free map with a wall at x = 1.4 from y = -6 to y = 3: "front" is the closest in a
+  // straight line but behind the wall.
+  auto map = std::make_shared<mrpt::maps::COccupancyGridMap2D>(-2.0f, 10.0f, -6.0f, 6.0f, 0.05f);
+  map->fill(1.0f);
+  for (float y = -6.0f; y <= 3.0f; y += 0.025f) {
+    for (float x = 1.3f; x <= 1.45f; x += 0.025f) map->setPos(x, y, 0.0f);
+  }
+  rig.run_ctx.map = map;
+  rig.mission.targets[0].T_map_model = isometry_from_xyz_rpy(2.5, -3.0, 0.9, 0, 0, 0);  // faces +x
+  rig.mission.targets[1].T_map_model = isometry_from_xyz_rpy(-1.0, 4.5, 0.9, 0, 0, 0);
+  rig.mission.targets[2].T_map_model = isometry_from_xyz_rpy(6.0, 0.0, 0.9, 0, 0, 0);
+  rig.ctx.target = nullptr;  // leaving no target: choose among all three
+  rig.blackboard.set(keys::kLocalization, estimate_at(Pose2D{0.0, -3.0, 0.0}));
+  // Straight line: front's stand-off (3.5, -3) is 3.5 m away, left's (0, 4.5) 7.5 m, far's
+  // (7, 0) 7.6 m; by path front needs to go round the wall's end at y = 3.
+  auto next = rig.make("next", {{"order", std::string("nearest")}});
+  const Outcome out = rig.run(*next);
+  ASSERT_EQ(out.name, "succeeded") << out.message;
+  EXPECT_EQ(rig.blackboard.require<long long>(keys::kNextTargetIndex), 1) << out.message;
+
+  auto mission_order = rig.make("next");
+  rig.run(*mission_order);
+  EXPECT_EQ(rig.blackboard.require<long long>(keys::kNextTargetIndex), 0);
+
+  // Without a wall, the straight-line nearest wins.
+  map->fill(1.0f);
+  auto nearest_again = rig.make("next", {{"order", std::string("nearest")}});
+  rig.run(*nearest_again);
+  EXPECT_EQ(rig.blackboard.require<long long>(keys::kNextTargetIndex), 0);
+}
+
+TEST(Next, RejectsUnknownOrder) {
+  Rig rig;
+  EXPECT_THROW(rig.make("next", {{"order", std::string("random")}}), std::invalid_argument);
+}

@@ -1,0 +1,156 @@
+// World files of a dry run: values, defaults, the checks against the mission, and diagnostics.
+#include "loader_fixture.hpp"
+#include "projtour/mission_loader.hpp"
+
+namespace projtour::test {
+namespace {
+
+using ::testing::ElementsAre;
+
+const char* const kWorld = R"(seed: 7
+targets:
+  rabbit:
+    pose: {x: 6.03, y: 2.02, z: 0.9, yaw_deg: 177}
+target_offset: {max_m: 0.05, max_deg: 5}
+noise: {odometry_trans_frac: 0.02, odometry_rot_frac: 0.04, laser_range_m: 0.02, encoder_deg: 0.05, depth: none}
+model_error: {enabled: false, noise_mm: 2}
+calibration_error: {trans_mm: 3, rot_deg: 0.3}
+faults:
+  - {target: rabbit, type: frame_dropout, fraction: 0.5}
+  - {target: hare, type: kidnap, distance_m: 1.0, at_s: 20}
+)";
+
+class WorldLoader : public LoaderTest {
+ protected:
+  void SetUp() override {
+    LoaderTest::SetUp();
+    Diagnostics diag;
+    auto loaded = load_mission(write("m.yaml", kMission), diag);
+    ASSERT_TRUE(loaded) << diag.format();
+    mission = std::move(*loaded);
+  }
+
+  std::vector<std::string> world_errors(const std::string& text) const {
+    Diagnostics diag;
+    EXPECT_FALSE(load_world(write("w.yaml", text), mission, diag));
+    EXPECT_TRUE(diag.has_errors());
+    return formatted(diag);
+  }
+
+  MissionSpec mission;
+};
+
+TEST_F(WorldLoader, AllValues) {
+  Diagnostics diag;
+  const auto world = load_world(write("w.yaml", kWorld), mission, diag);
+  ASSERT_TRUE(world) << diag.format();
+  EXPECT_EQ(world->file, dir_path / "w.yaml");
+  EXPECT_EQ(world->seed, 7u);
+  ASSERT_EQ(world->T_map_model_true.count("rabbit"), 1u);
+  EXPECT_TRUE(world->T_map_model_true.at("rabbit").translation().isApprox(
+      Eigen::Vector3d(6.03, 2.02, 0.9)));
+  EXPECT_EQ(world->T_map_model_true.count("hare"), 0u);
+  EXPECT_DOUBLE_EQ(world->target_offset_max_m, 0.05);
+  EXPECT_DOUBLE_EQ(world->target_offset_max_deg, 5.0);
+  EXPECT_DOUBLE_EQ(world->odometry_trans_noise_frac, 0.02);
+  EXPECT_DOUBLE_EQ(world->odometry_rot_noise_frac, 0.04);
+  EXPECT_DOUBLE_EQ(world->laser_range_noise_m, 0.02);
+  EXPECT_DOUBLE_EQ(world->encoder_noise_deg, 0.05);
+  EXPECT_FALSE(world->depth_noise);
+  EXPECT_FALSE(world->model_error);
+  EXPECT_DOUBLE_EQ(world->model_error_noise_mm, 2.0);
+  EXPECT_DOUBLE_EQ(world->calibration_error_mm, 3.0);
+  EXPECT_DOUBLE_EQ(world->calibration_error_deg, 0.3);
+  ASSERT_EQ(world->faults.size(), 2u);
+  EXPECT_EQ(world->faults[0].target, "rabbit");
+  EXPECT_EQ(world->faults[0].type, "frame_dropout");
+  EXPECT_EQ(world->faults[0].values, (std::map<std::string, double>{{"fraction", 0.5}}));
+  EXPECT_EQ(world->faults[1].type, "kidnap");
+  EXPECT_EQ(world->faults[1].values,
+            (std::map<std::string, double>{{"distance_m", 1.0}, {"at_s", 20.0}}));
+  EXPECT_EQ(world->faults[1].mark.line, 11);
+}
+
+TEST_F(WorldLoader, EmptyFileIsTheDefaultWorld) {
+  Diagnostics diag;
+  const auto world = load_world(write("w.yaml", "# defaults\n"), mission, diag);
+  ASSERT_TRUE(world) << diag.format();
+  const WorldSpec defaults;
+  EXPECT_FALSE(world->seed);
+  EXPECT_TRUE(world->T_map_model_true.empty());
+  EXPECT_DOUBLE_EQ(world->odometry_trans_noise_frac, defaults.odometry_trans_noise_frac);
+  EXPECT_TRUE(world->depth_noise);
+  EXPECT_TRUE(world->faults.empty());
+}
+
+TEST_F(WorldLoader, ShippedExampleLoadsAgainstAMissionWithItsTarget) {
+  Diagnostics diag;
+  const auto world =
+      load_world(PROJTOUR_SOURCE_DIR "/examples/worlds/atrium_faults.yaml", mission, diag);
+  ASSERT_TRUE(world) << diag.format();
+  EXPECT_EQ(world->seed, 7u);
+  EXPECT_EQ(world->faults.size(), 2u);
+}
+
+TEST_F(WorldLoader, UnknownTargetIdSuggests) {
+  EXPECT_THAT(world_errors(replace(kWorld, "rabbit:", "rabit:")),
+              ElementsAre(dir + "/w.yaml:3:3: targets.rabit: unknown target \"rabit\" (not in "
+                                "mission " + dir + "/m.yaml); did you mean \"rabbit\"?"));
+}
+
+TEST_F(WorldLoader, FaultOnUnknownTarget) {
+  EXPECT_THAT(world_errors(replace(kWorld, "target: hare", "target: fox")),
+              ElementsAre(dir + "/w.yaml:11:14: faults[1].target: unknown target \"fox\" (not "
+                                "in mission " + dir + "/m.yaml)"));
+}
+
+TEST_F(WorldLoader, UnknownFaultType) {
+  EXPECT_THAT(world_errors(replace(kWorld, "frame_dropout", "dropout")),
+              ElementsAre(dir + "/w.yaml:10:28: faults[0].type: expected one of frame_dropout, "
+                                "target_missing, occluder, blocked_path, kidnap, "
+                                "camera_disconnect, projector_failure, got \"dropout\""));
+}
+
+TEST_F(WorldLoader, FaultValueNotANumber) {
+  EXPECT_THAT(world_errors(replace(kWorld, "fraction: 0.5", "fraction: half")),
+              ElementsAre(dir + "/w.yaml:10:53: faults[0].fraction: expected a number, got "
+                                "\"half\""));
+}
+
+TEST_F(WorldLoader, UnknownTopKeySuggests) {
+  EXPECT_THAT(world_errors(replace(kWorld, "noise:", "noize:")),
+              ElementsAre(dir + "/w.yaml:6:1: noize: unknown key \"noize\"; did you mean "
+                                "\"noise\"?"));
+}
+
+TEST_F(WorldLoader, NegativeNoise) {
+  EXPECT_THAT(world_errors(replace(kWorld, "laser_range_m: 0.02", "laser_range_m: -0.02")),
+              ElementsAre(dir + "/w.yaml:6:76: noise.laser_range_m: expected a number >= 0, got "
+                                "-0.02"));
+}
+
+TEST_F(WorldLoader, DepthNoiseModelUnknown) {
+  EXPECT_THAT(world_errors(replace(kWorld, "depth: none", "depth: nonee")),
+              ElementsAre(dir + "/w.yaml:6:108: noise.depth: expected one of kinect_v1, none, "
+                                "got \"nonee\"; did you mean \"none\"?"));
+}
+
+TEST_F(WorldLoader, SeedNotAnInteger) {
+  EXPECT_THAT(world_errors(replace(kWorld, "seed: 7", "seed: lucky")),
+              ElementsAre(dir + "/w.yaml:1:7: seed: expected an integer, got \"lucky\""));
+}
+
+TEST_F(WorldLoader, ModelErrorEnabledNotABool) {
+  EXPECT_THAT(world_errors(replace(kWorld, "enabled: false", "enabled: 0.5")),
+              ElementsAre(dir + "/w.yaml:7:24: model_error.enabled: expected true or false, got "
+                                "\"0.5\""));
+}
+
+TEST_F(WorldLoader, TruePoseUnknownKeySuggests) {
+  EXPECT_THAT(world_errors(replace(kWorld, "yaw_deg: 177", "yaw_deg: 177, pich_deg: 2")),
+              ElementsAre(dir + "/w.yaml:4:52: targets.rabbit.pose.pich_deg: unknown key "
+                                "\"pich_deg\"; did you mean \"pitch_deg\"?"));
+}
+
+}  // namespace
+}  // namespace projtour::test

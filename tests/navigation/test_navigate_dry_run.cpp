@@ -1,0 +1,139 @@
+// navigate and relocalize in an in-process dry run: the demo map's corridors, and small maps
+// made to produce each failure outcome.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+
+#include "nav_rig.hpp"
+#include "projtour/blackboard_keys.hpp"
+#include "projtour/localizer.hpp"
+#include "projtour/occupancy_map.hpp"
+#include "test_maps.hpp"
+
+namespace projtour::nav_test {
+namespace {
+
+const std::string kDemoMap = PROJTOUR_SOURCE_DIR "/maps/malaga_campus.yaml";
+
+std::filesystem::path temp_dir() {
+  auto dir =
+      std::filesystem::temp_directory_path() / ("projtour_nav_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+struct CorridorGoal {
+  const char* name;
+  Pose2D goal;
+};
+
+class NavigateCorridors : public ::testing::TestWithParam<CorridorGoal> {};
+
+TEST_P(NavigateCorridors, ReachesStandoffPoseOnTheDemoMap) {
+  const Pose2D start{10.0, 1.0, 0.0};
+  Rig rig(kDemoMap, start, 7);
+  rig.idle(1.0);
+  const TargetSpec target = target_for_goal("t", GetParam().goal);
+  const Pose2D goal = standoff_pose(target);
+  ASSERT_NEAR(goal.x_m, GetParam().goal.x_m, 1e-9);
+
+  const auto outcome = rig.run("navigate", rig.defaults("navigate"), &target, 400.0);
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_EQ(outcome->name, "succeeded") << outcome->message;
+  const Pose2D truth = rig.world().truth;
+  const Pose2D estimate = rig.estimate().mean;
+  // Succeeded is judged on the estimate; the truth must be as close, give or take the
+  // localization error.
+  EXPECT_LT(distance_m(estimate, goal), 0.10);
+  EXPECT_LT(heading_error_rad(estimate, goal), deg_to_rad(5.0));
+  EXPECT_LT(distance_m(truth, goal), 0.15);
+  EXPECT_LT(heading_error_rad(truth, goal), deg_to_rad(6.0));
+  const auto path = rig.blackboard().get<std::vector<Pose2D>>(keys::kPlannedPath);
+  ASSERT_TRUE(path.has_value());
+  EXPECT_GT(path->size(), 5u);
+  std::printf("[ figures ] %s: arrival error truth-estimate %.3f m %.2f deg at t=%.1f s\n",
+              GetParam().name, distance_m(truth, estimate),
+              rad_to_deg(heading_error_rad(truth, estimate)), rig.now_s());
+}
+
+INSTANTIATE_TEST_SUITE_P(DemoMap, NavigateCorridors,
+                         ::testing::Values(CorridorGoal{"north_corridor", {30.0, 1.0, 0.0}},
+                                           CorridorGoal{"second_corridor", {22.0, -15.0, -kPi / 2}},
+                                           CorridorGoal{"third_corridor", {42.0, -12.0, -kPi / 2}}),
+                         [](const ::testing::TestParamInfo<CorridorGoal>& info) {
+                           return info.param.name;
+                         });
+
+TEST(NavigateOutcomes, UnreachableWhenTheGoalIsInAClosedRoom) {
+  const auto map = write_corridor_map(temp_dir());
+  Rig rig(map.string(), {3.0, 2.0, 0.0}, 1);
+  rig.idle(0.5);
+  const TargetSpec target = target_for_goal("room", {12.0, 8.0, 0.0});
+  const auto outcome = rig.run("navigate", rig.defaults("navigate"), &target, 10.0);
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_EQ(outcome->name, "unreachable");
+  EXPECT_LT(rig.now_s(), 2.0);
+}
+
+TEST(NavigateOutcomes, BlockedWhenAnObstacleClosesTheCorridor) {
+  const auto map = write_corridor_map(temp_dir());
+  Rig rig(map.string(), {3.0, 2.0, 0.0}, 2);
+  rig.world().add_box(12.0, 1.0, 12.4, 3.0);  // wall to wall, not on the robot's map
+  rig.idle(0.5);
+  Params params = rig.defaults("navigate");
+  params.set("blocked_s", 5.0);
+  const TargetSpec target = target_for_goal("far", {25.0, 2.0, 0.0});
+  const auto outcome = rig.run("navigate", params, &target, 120.0);
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_EQ(outcome->name, "blocked") << outcome->message;
+  // It stopped in front of the box, not in it.
+  EXPECT_LT(rig.world().truth.x_m, 12.0);
+  EXPECT_GT(rig.world().truth.x_m, 9.0);
+}
+
+TEST(NavigateOutcomes, TimeoutWhenTheGoalIsTooFarForTheTime) {
+  const auto map = write_corridor_map(temp_dir());
+  Rig rig(map.string(), {3.0, 2.0, 0.0}, 3);
+  rig.idle(0.5);
+  Params params = rig.defaults("navigate");
+  params.set("timeout_s", 4.0);
+  const TargetSpec target = target_for_goal("far", {25.0, 2.0, 0.0});
+  const auto outcome = rig.run("navigate", params, &target, 30.0);
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_EQ(outcome->name, "timeout");
+  EXPECT_NEAR(rig.now_s(), 0.5 + 4.0, 0.2);
+}
+
+TEST(NavigateOutcomes, LostWhenTheParticleCloudIsSpreadOut) {
+  const auto map = write_corridor_map(temp_dir());
+  Rig rig(map.string(), {3.0, 2.0, 0.0}, 4);
+  rig.idle(0.5);
+  rig.blackboard().set(keys::kLocalizationWiden, 3.0);
+  rig.step();  // the service widens the cloud
+  ASSERT_GT(position_std_m(rig.estimate()), 0.5);
+  const TargetSpec target = target_for_goal("far", {25.0, 2.0, 0.0});
+  const auto outcome = rig.run("navigate", rig.defaults("navigate"), &target, 10.0);
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_EQ(outcome->name, "lost");
+}
+
+TEST(Relocalize, RecoversAfterTheRobotIsDisplacedByHalfAMetre) {
+  const Pose2D start{22.0, -5.0, -kPi / 2};
+  Rig rig(kDemoMap, start, 5);
+  rig.idle(2.0);
+  ASSERT_LT(distance_m(rig.estimate().mean, rig.world().truth), 0.1);
+  // Kidnap: the base is carried 0.5 m sideways without its wheels turning.
+  rig.world().truth.x_m += 0.5;
+  rig.idle(1.0);
+  ASSERT_GT(distance_m(rig.estimate().mean, rig.world().truth), 0.3);
+  const auto outcome = rig.run("relocalize", rig.defaults("relocalize"), nullptr, 60.0);
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_EQ(outcome->name, "succeeded") << outcome->message;
+  EXPECT_LT(distance_m(rig.estimate().mean, rig.world().truth), 0.10);
+  EXPECT_LT(heading_error_rad(rig.estimate().mean, rig.world().truth), deg_to_rad(3.0));
+}
+
+}  // namespace
+}  // namespace projtour::nav_test
