@@ -7,6 +7,26 @@
 
 namespace projtour::loader {
 
+void check_unique_keys(const YamlField& field) {
+  if (!field.is_map()) return;
+  std::map<std::string, int> first_line;
+  for (const auto& kv : field.node()) {
+    if (!kv.first.IsScalar()) continue;
+    const std::string& key = kv.first.Scalar();
+    const YAML::Mark m = kv.first.Mark();
+    const auto [it, inserted] = first_line.emplace(key, m.line + 1);
+    if (inserted) continue;
+    field.diagnostics().error(
+        SourceMark{field.file(), m.line + 1, m.column + 1}, field.child_path(key),
+        "duplicate key \"" + key + "\" (first at line " + std::to_string(it->second) + ")");
+  }
+}
+
+void check_keys(const YamlField& field, const std::vector<std::string>& allowed) {
+  field.check_keys(allowed);
+  check_unique_keys(field);
+}
+
 std::string format_number(double value) {
   char buffer[32];
   for (int precision = 6; precision <= 17; ++precision) {
@@ -35,7 +55,9 @@ bool sign_ok(double value, Sign sign) {
   return true;
 }
 
-const char* sign_bound(Sign sign) { return sign == Sign::positive ? "> 0" : ">= 0"; }
+const char* sign_bound(Sign sign) {
+  return sign == Sign::positive ? "> 0" : ">= 0";
+}
 
 }  // namespace
 
@@ -53,8 +75,7 @@ std::optional<long long> read_integer(const YamlField& field, bool required, Sig
   const auto value = field.as_int(required);
   if (!value) return std::nullopt;
   if (!sign_ok(static_cast<double>(*value), sign)) {
-    field.error(std::string("expected an integer ") + sign_bound(sign) + ", got " +
-                written(field));
+    field.error(std::string("expected an integer ") + sign_bound(sign) + ", got " + written(field));
     return std::nullopt;
   }
   return value;
@@ -103,7 +124,7 @@ template std::optional<std::array<double, 5>> read_numbers<5>(const YamlField&, 
 
 std::optional<Eigen::Isometry3d> read_pose(const YamlField& field, bool required) {
   if (!field.expect_map(required)) return std::nullopt;
-  field.check_keys({"x", "y", "z", "yaw_deg", "roll_deg", "pitch_deg"});
+  check_keys(field, {"x", "y", "z", "yaw_deg", "roll_deg", "pitch_deg"});
   const auto x = read_number(field["x"], true);
   const auto y = read_number(field["y"], true);
   const auto z = read_number(field["z"], true);
@@ -119,7 +140,7 @@ std::optional<Eigen::Isometry3d> read_pose(const YamlField& field, bool required
 
 std::optional<Pose2D> read_pose2d(const YamlField& field, bool required) {
   if (!field.expect_map(required)) return std::nullopt;
-  field.check_keys({"x", "y", "yaw_deg"});
+  check_keys(field, {"x", "y", "yaw_deg"});
   const auto x = read_number(field["x"], true);
   const auto y = read_number(field["y"], true);
   const auto yaw = read_angle_deg(field["yaw_deg"], true);
@@ -129,7 +150,7 @@ std::optional<Pose2D> read_pose2d(const YamlField& field, bool required) {
 
 std::optional<PluginInstanceSpec> read_plugin_instance(const YamlField& field) {
   if (!field.expect_map(true)) return std::nullopt;
-  field.check_keys({"kind", "params"});
+  check_keys(field, {"kind", "params"});
   const YamlField kind = field["kind"];
   const YamlField params = field["params"];
   auto kind_text = kind.as_string(true);
@@ -158,8 +179,8 @@ std::string lower_extension(const std::filesystem::path& path) {
 bool is_portable_id(const std::string& id) {
   return !id.empty() && std::all_of(id.begin(), id.end(), [](unsigned char c) {
     // Spelt out rather than std::isalnum, whose answer depends on the locale.
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-           c == '_' || c == '-';
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '-';
   });
 }
 

@@ -16,13 +16,17 @@
 
 namespace projtour::loader {
 
+// Repeated keys are errors: yaml-cpp accepts them silently and the first one wins.
+void check_unique_keys(const YamlField& field);
+// YamlField::check_keys plus check_unique_keys.
+void check_keys(const YamlField& field, const std::vector<std::string>& allowed);
+
 // Shortest text that reads back as the same number ("0.05", "170", "1e-06").
 std::string format_number(double value);
 
 enum class Sign { any, positive, non_negative };
 std::optional<double> read_number(const YamlField& field, bool required, Sign sign = Sign::any);
-std::optional<long long> read_integer(const YamlField& field, bool required,
-                                      Sign sign = Sign::any);
+std::optional<long long> read_integer(const YamlField& field, bool required, Sign sign = Sign::any);
 // Degrees within [-360, 360]: larger values are almost always radians or a typo.
 std::optional<double> read_angle_deg(const YamlField& field, bool required);
 

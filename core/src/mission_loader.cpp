@@ -38,8 +38,8 @@ std::optional<std::filesystem::path> read_typed_path(const YamlField& f,
   const auto unchecked = f.as_path(true, false);
   if (!unchecked) return std::nullopt;
   if (!contains(extensions, lower_extension(*unchecked))) {
-    f.error("expected " + what + " (" + join(extensions, " or ") + "), got \"" +
-            f.node().Scalar() + "\"");
+    f.error("expected " + what + " (" + join(extensions, " or ") + "), got \"" + f.node().Scalar() +
+            "\"");
     return std::nullopt;
   }
   return f.as_path(true, true);
@@ -56,12 +56,13 @@ class MissionReader {
   std::optional<MissionSpec> read() {
     const std::size_t errors_before = diag_.error_count();
     if (!root_.defined()) {
-      root_.error("empty mission file: expected a mapping with mission, map, robot, start and "
-                  "targets");
+      root_.error(
+          "empty mission file: expected a mapping with mission, map, robot, start and "
+          "targets");
       return std::nullopt;
     }
     if (!root_.expect_map()) return std::nullopt;
-    root_.check_keys({"mission", "map", "robot", "start", "targets", "order", "machine"});
+    loader::check_keys(root_, {"mission", "map", "robot", "start", "targets", "order", "machine"});
 
     if (auto name = note(root_["mission"]).as_string()) {
       if (name->empty()) {
@@ -90,7 +91,8 @@ class MissionReader {
   }
 
  private:
-  const YamlField& note(const YamlField& f) {
+  // By value: callers pass temporaries such as root_["map"].
+  YamlField note(const YamlField& f) {
     mission_.marks[f.path()] = f.mark();
     return f;
   }
@@ -112,7 +114,8 @@ class MissionReader {
   std::optional<TargetSpec> read_target(const YamlField& f,
                                         std::map<std::string, int>& first_line_of_id) {
     if (!f.expect_map()) return std::nullopt;
-    f.check_keys({"id", "model", "pose", "model_points", "content", "standoff_m", "dwell_s"});
+    loader::check_keys(f,
+                       {"id", "model", "pose", "model_points", "content", "standoff_m", "dwell_s"});
     const std::size_t errors_before = diag_.error_count();
     TargetSpec target;
 
@@ -121,8 +124,7 @@ class MissionReader {
       if (!loader::is_portable_id(*text)) {
         id.error("expected an id of letters, digits, '_' and '-' (it names a directory), got \"" +
                  *text + "\"");
-      } else if (auto [it, inserted] = first_line_of_id.emplace(*text, id.mark().line);
-                 !inserted) {
+      } else if (auto [it, inserted] = first_line_of_id.emplace(*text, id.mark().line); !inserted) {
         id.error("duplicate target id \"" + *text + "\" (first used at line " +
                  std::to_string(it->second) + ")");
       }
@@ -167,8 +169,7 @@ class MissionReader {
         for (std::size_t c = b + 1; c < 4; ++c) {
           if (0.5 * (q[b] - q[a]).cross(q[c] - q[a]).norm() < 1e-6) {
             f.error("points " + std::to_string(a) + ", " + std::to_string(b) + " and " +
-                    std::to_string(c) +
-                    " lie on one line; the four corners must enclose an area");
+                    std::to_string(c) + " lie on one line; the four corners must enclose an area");
             return;
           }
         }

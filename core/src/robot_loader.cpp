@@ -17,7 +17,7 @@ constexpr long long kMaxImageSide = 16384;
 
 void read_base(const YamlField& f, BaseSpec& base) {
   if (!f.expect_map()) return;
-  f.check_keys({"radius_m", "max_speed_mps", "max_turn_rate_dps"});
+  loader::check_keys(f, {"radius_m", "max_speed_mps", "max_turn_rate_dps"});
   if (auto v = read_number(f["radius_m"], true, Sign::positive)) base.radius_m = *v;
   if (auto v = read_number(f["max_speed_mps"], false, Sign::positive)) base.max_speed_mps = *v;
   if (auto v = read_number(f["max_turn_rate_dps"], false, Sign::positive)) {
@@ -27,7 +27,7 @@ void read_base(const YamlField& f, BaseSpec& base) {
 
 void read_laser(const YamlField& f, LaserSpec& laser) {
   if (!f.expect_map()) return;
-  f.check_keys({"pose", "fov_deg", "rays", "max_range_m", "range_noise_m", "rate_hz"});
+  loader::check_keys(f, {"pose", "fov_deg", "rays", "max_range_m", "range_noise_m", "rate_hz"});
   if (auto T = loader::read_pose(f["pose"])) laser.T_base_laser = *T;
   if (auto v = read_number(f["fov_deg"], false, Sign::positive)) {
     if (*v > 360.0) {
@@ -53,7 +53,7 @@ void read_laser(const YamlField& f, LaserSpec& laser) {
 
 std::optional<Eigen::Isometry3d> read_joint(const YamlField& f) {
   if (!f.expect_map()) return std::nullopt;
-  f.check_keys({"pose"});
+  loader::check_keys(f, {"pose"});
   return loader::read_pose(f["pose"]);
 }
 
@@ -63,8 +63,8 @@ bool read_limits(const YamlField& f, double& min_deg, double& max_deg) {
   if (!limits) return false;
   const auto [lo, hi] = *limits;
   if (lo < -360.0 || hi > 360.0 || !(lo < hi)) {
-    f.error("expected [min, max] with -360 <= min < max <= 360, got [" + format_number(lo) +
-            ", " + format_number(hi) + "]");
+    f.error("expected [min, max] with -360 <= min < max <= 360, got [" + format_number(lo) + ", " +
+            format_number(hi) + "]");
     return false;
   }
   min_deg = lo;
@@ -86,8 +86,8 @@ void read_stow_angle(const YamlField& f, bool limits_ok, double min_deg, double 
 
 void read_pan_tilt(const YamlField& f, PanTiltSpec& pt) {
   if (!f.expect_map()) return;
-  f.check_keys({"pan_joint", "tilt_joint", "pan_limits_deg", "tilt_limits_deg", "max_rate_dps",
-                "encoder_noise_deg", "stow", "tolerance_deg"});
+  loader::check_keys(f, {"pan_joint", "tilt_joint", "pan_limits_deg", "tilt_limits_deg",
+                         "max_rate_dps", "encoder_noise_deg", "stow", "tolerance_deg"});
   if (auto T = read_joint(f["pan_joint"])) pt.T_base_pan0 = *T;
   if (auto T = read_joint(f["tilt_joint"])) pt.T_pan_tilt0 = *T;
   const bool pan_ok = read_limits(f["pan_limits_deg"], pt.pan_min_deg, pt.pan_max_deg);
@@ -99,11 +99,11 @@ void read_pan_tilt(const YamlField& f, PanTiltSpec& pt) {
   if (auto v = read_number(f["tolerance_deg"], false, Sign::positive)) pt.tolerance_deg = *v;
   const YamlField stow = f["stow"];
   if (stow.expect_map(false)) {
-    stow.check_keys({"pan_deg", "tilt_deg"});
+    loader::check_keys(stow, {"pan_deg", "tilt_deg"});
     read_stow_angle(stow["pan_deg"], pan_ok, pt.pan_min_deg, pt.pan_max_deg, "pan_limits_deg",
                     pt.stow_pan_deg);
-    read_stow_angle(stow["tilt_deg"], tilt_ok, pt.tilt_min_deg, pt.tilt_max_deg,
-                    "tilt_limits_deg", pt.stow_tilt_deg);
+    read_stow_angle(stow["tilt_deg"], tilt_ok, pt.tilt_min_deg, pt.tilt_max_deg, "tilt_limits_deg",
+                    pt.stow_tilt_deg);
   }
 }
 
@@ -155,8 +155,8 @@ void read_intrinsics(const YamlField& f, PinholeModel& model) {
 
 void read_camera(const YamlField& f, CameraSpec& camera) {
   if (!f.expect_map()) return;
-  f.check_keys({"mount", "pose", "width", "height", "fx", "fy", "cx", "cy", "depth_to_color_m",
-                "min_range_m", "max_range_m", "rate_hz"});
+  loader::check_keys(f, {"mount", "pose", "width", "height", "fx", "fy", "cx", "cy",
+                         "depth_to_color_m", "min_range_m", "max_range_m", "rate_hz"});
   read_mount(f, camera.mount);
   read_intrinsics(f, camera.intrinsics);
   if (auto v = loader::read_numbers<3>(f["depth_to_color_m"], false, "[x, y, z]")) {
@@ -167,16 +167,16 @@ void read_camera(const YamlField& f, CameraSpec& camera) {
   if (min_range) camera.min_range_m = *min_range;
   if (max_range) camera.max_range_m = *max_range;
   if ((min_range || max_range) && !(camera.min_range_m < camera.max_range_m)) {
-    f[max_range ? "max_range_m" : "min_range_m"].error(
-        "expected min_range_m < max_range_m, got " + format_number(camera.min_range_m) +
-        " and " + format_number(camera.max_range_m));
+    f[max_range ? "max_range_m" : "min_range_m"].error("expected min_range_m < max_range_m, got " +
+                                                       format_number(camera.min_range_m) + " and " +
+                                                       format_number(camera.max_range_m));
   }
   if (auto v = read_number(f["rate_hz"], false, Sign::positive)) camera.rate_hz = *v;
 }
 
 void read_projector(const YamlField& f, ProjectorSpec& projector) {
   if (!f.expect_map()) return;
-  f.check_keys({"mount", "pose", "width", "height", "fx", "fy", "cx", "cy", "distortion"});
+  loader::check_keys(f, {"mount", "pose", "width", "height", "fx", "fy", "cx", "cy", "distortion"});
   read_mount(f, projector.mount);
   read_intrinsics(f, projector.intrinsics);
   if (auto d = loader::read_numbers<5>(f["distortion"], false, "[k1, k2, p1, p2, k3]")) {
@@ -187,7 +187,7 @@ void read_projector(const YamlField& f, ProjectorSpec& projector) {
 void read_instances(const YamlField& f, const std::vector<std::string>& roles,
                     std::map<std::string, PluginInstanceSpec>& out) {
   if (!f.expect_map(false)) return;
-  f.check_keys(roles);
+  loader::check_keys(f, roles);
   for (const auto& role : roles) {
     const YamlField entry = f[role];
     if (!entry.defined()) continue;
@@ -200,13 +200,14 @@ std::optional<RobotSpec> read_robot(const YAML::Node& node, const std::string& f
   const std::size_t errors_before = diag.error_count();
   const YamlField root(node, file, diag);
   if (!root.defined()) {
-    root.error("empty robot file: expected a mapping with robot, base, laser, pan_tilt, camera "
-               "and projector");
+    root.error(
+        "empty robot file: expected a mapping with robot, base, laser, pan_tilt, camera "
+        "and projector");
     return std::nullopt;
   }
   if (!root.expect_map()) return std::nullopt;
-  root.check_keys(
-      {"robot", "base", "laser", "pan_tilt", "camera", "projector", "drivers", "services"});
+  loader::check_keys(
+      root, {"robot", "base", "laser", "pan_tilt", "camera", "projector", "drivers", "services"});
 
   RobotSpec robot;
   robot.file = file;

@@ -24,8 +24,8 @@ bool check_target_id(const std::string& id, const MissionSpec& mission, const So
                      const std::string& where, Diagnostics& diag) {
   const auto ids = target_ids(mission);
   if (std::find(ids.begin(), ids.end(), id) != ids.end()) return true;
-  std::string message = "unknown target \"" + id + "\" (not in mission " +
-                        mission.file.string() + ")";
+  std::string message =
+      "unknown target \"" + id + "\" (not in mission " + mission.file.string() + ")";
   const std::string suggestion = closest_match(id, ids);
   if (!suggestion.empty()) message += "; did you mean \"" + suggestion + "\"?";
   diag.error(mark, where, message);
@@ -35,6 +35,7 @@ bool check_target_id(const std::string& id, const MissionSpec& mission, const So
 void read_true_poses(const YamlField& f, const MissionSpec& mission, Diagnostics& diag,
                      WorldSpec& world) {
   if (!f.expect_map(false)) return;
+  loader::check_unique_keys(f);
   for (const auto& kv : f.node()) {
     if (!kv.first.IsScalar()) {
       f.error("expected target ids as keys");
@@ -46,15 +47,15 @@ void read_true_poses(const YamlField& f, const MissionSpec& mission, Diagnostics
     const SourceMark mark{f.file(), key_mark.line + 1, key_mark.column + 1};
     if (!check_target_id(id, mission, mark, entry.path(), diag)) continue;
     if (!entry.expect_map()) continue;
-    entry.check_keys({"pose"});
+    loader::check_keys(entry, {"pose"});
     if (auto T = loader::read_pose(entry["pose"])) world.T_map_model_true[id] = *T;
   }
 }
 
 void read_noise(const YamlField& f, WorldSpec& world) {
   if (!f.expect_map(false)) return;
-  f.check_keys({"odometry_trans_frac", "odometry_rot_frac", "laser_range_m", "encoder_deg",
-                "depth"});
+  loader::check_keys(
+      f, {"odometry_trans_frac", "odometry_rot_frac", "laser_range_m", "encoder_deg", "depth"});
   auto non_negative = [&](const char* key, double& out) {
     if (auto v = read_number(f[key], false, Sign::non_negative)) out = *v;
   };
@@ -73,6 +74,7 @@ void read_faults(const YamlField& f, const MissionSpec& mission, Diagnostics& di
   for (std::size_t i = 0; i < f.size(); ++i) {
     const YamlField entry = f[i];
     if (!entry.expect_map()) continue;
+    loader::check_unique_keys(entry);
     FaultSpec fault;
     fault.mark = entry.mark();
     bool ok = true;
@@ -116,8 +118,8 @@ std::optional<WorldSpec> read_world(const YAML::Node& node, const std::string& f
   // An empty world file is the default world.
   if (!root.defined()) return world;
   if (!root.expect_map()) return std::nullopt;
-  root.check_keys({"seed", "targets", "target_offset", "noise", "model_error",
-                   "calibration_error", "faults"});
+  loader::check_keys(root, {"seed", "targets", "target_offset", "noise", "model_error",
+                            "calibration_error", "faults"});
 
   if (auto seed = loader::read_integer(root["seed"], false, Sign::non_negative)) {
     world.seed = static_cast<unsigned long long>(*seed);
@@ -125,7 +127,7 @@ std::optional<WorldSpec> read_world(const YAML::Node& node, const std::string& f
   read_true_poses(root["targets"], mission, diag, world);
   const YamlField offset = root["target_offset"];
   if (offset.expect_map(false)) {
-    offset.check_keys({"max_m", "max_deg"});
+    loader::check_keys(offset, {"max_m", "max_deg"});
     if (auto v = read_number(offset["max_m"], false, Sign::non_negative)) {
       world.target_offset_max_m = *v;
     }
@@ -136,7 +138,7 @@ std::optional<WorldSpec> read_world(const YAML::Node& node, const std::string& f
   read_noise(root["noise"], world);
   const YamlField model_error = root["model_error"];
   if (model_error.expect_map(false)) {
-    model_error.check_keys({"enabled", "noise_mm"});
+    loader::check_keys(model_error, {"enabled", "noise_mm"});
     if (auto v = model_error["enabled"].as_bool(false)) world.model_error = *v;
     if (auto v = read_number(model_error["noise_mm"], false, Sign::non_negative)) {
       world.model_error_noise_mm = *v;
@@ -144,7 +146,7 @@ std::optional<WorldSpec> read_world(const YAML::Node& node, const std::string& f
   }
   const YamlField calibration = root["calibration_error"];
   if (calibration.expect_map(false)) {
-    calibration.check_keys({"trans_mm", "rot_deg"});
+    loader::check_keys(calibration, {"trans_mm", "rot_deg"});
     if (auto v = read_number(calibration["trans_mm"], false, Sign::non_negative)) {
       world.calibration_error_mm = *v;
     }

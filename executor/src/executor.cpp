@@ -130,6 +130,7 @@ void Executor::emit(EventType type, const StateSpec& state, const std::string& o
 }
 
 void Executor::start_services() {
+  start_s_ = clock_.now_s();
   service_contexts_.reserve(services_.size());
   for (auto& s : services_) {
     service_contexts_.push_back(make_context(nullptr));
@@ -446,7 +447,9 @@ void Executor::finish_tour(TourOutcome outcome) {
 bool Executor::step() {
   if (!started_) start();
   if (finished_) return false;
-  clock_.advance(options_.tick_s);
+  // Set, not accumulated, so mission time has no drift from summing tick_s.
+  ++ticks_;
+  clock_.set(start_s_ + static_cast<double>(ticks_) * options_.tick_s);
   transitions_this_tick_ = 0;
   const double now_s = clock_.now_s();
   driver_failure_.clear();

@@ -264,7 +264,6 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     }
   }
   progress.finish();
-  for (const auto& d : drivers.all()) d->safe_stop();
   for (const auto& who : executor.ignored_cancel()) {
     err << "projtour: warning: " << who << " ignored the cancel and was stopped\n";
   }

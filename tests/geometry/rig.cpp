@@ -109,6 +109,11 @@ Rig::Rig() {
   }
 }
 
+Rig::~Rig() {
+  std::error_code ec;
+  std::filesystem::remove_all(dir, ec);
+}
+
 void Rig::set_target(std::size_t index) {
   ctx.target = &mission.targets[index];
   ctx.target_index = index;

@@ -73,6 +73,9 @@ std::filesystem::path write_quadrant_content(const std::filesystem::path& dir);
 
 struct Rig {
   Rig();
+  ~Rig();
+  Rig(const Rig&) = delete;
+  Rig& operator=(const Rig&) = delete;
   std::shared_ptr<Behaviour> make(const std::string& kind,
                                   const std::map<std::string, ParamValue>& overrides = {});
   // Starts and ticks (advancing the clock by dt_s and updating drivers) until an outcome.

@@ -77,7 +77,8 @@ std::vector<std::string> formatted(const Diagnostics& diag) {
 }
 
 void LoaderTest::SetUp() {
-  std::string pattern = (std::filesystem::temp_directory_path() / "projtour_loader_XXXXXX").string();
+  std::string pattern =
+      (std::filesystem::temp_directory_path() / "projtour_loader_XXXXXX").string();
   ASSERT_NE(mkdtemp(pattern.data()), nullptr);
   dir_path = pattern;
   dir = pattern;

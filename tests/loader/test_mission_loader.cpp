@@ -51,8 +51,8 @@ TEST_F(MissionLoader, FixtureLoadsWithAllValues) {
   EXPECT_EQ(hare.id, "hare");
   EXPECT_DOUBLE_EQ(hare.standoff_m, 1.0);  // defaults
   EXPECT_DOUBLE_EQ(hare.dwell_s, 10.0);
-  EXPECT_TRUE((hare.T_map_model.linear() * Eigen::Vector3d::UnitX())
-                  .isApprox(-Eigen::Vector3d::UnitY()));
+  EXPECT_TRUE(
+      (hare.T_map_model.linear() * Eigen::Vector3d::UnitX()).isApprox(-Eigen::Vector3d::UnitY()));
 }
 
 TEST_F(MissionLoader, MarksPointAtEachField) {
@@ -115,8 +115,9 @@ TEST_F(MissionLoader, VideoContentNeedsOnlyToExist) {
 }
 
 TEST_F(MissionLoader, InlineMachineIsKeptUninterpreted) {
-  const std::string text = replace(kMission, "machine: default",
-                                   "machine:\n  initial: go\n  states: {go: {behaviour: navigate}}");
+  const std::string text =
+      replace(kMission, "machine: default",
+              "machine:\n  initial: go\n  states: {go: {behaviour: navigate}}");
   Diagnostics diag;
   const auto mission = load_mission(write("m.yaml", text), diag);
   ASSERT_TRUE(mission) << diag.format();
@@ -131,8 +132,7 @@ TEST_F(MissionLoader, MachineFromFileResolvesRelativeToMission) {
   write("machines/short.yaml", "initial: go\nstates: {go: {behaviour: navigate}}\n");
   Diagnostics diag;
   const auto mission = load_mission(
-      write("m.yaml", replace(kMission, "machine: default", "machine: machines/short.yaml")),
-      diag);
+      write("m.yaml", replace(kMission, "machine: default", "machine: machines/short.yaml")), diag);
   ASSERT_TRUE(mission) << diag.format();
   EXPECT_FALSE(mission->machine.is_default);
   EXPECT_EQ(mission->machine.file, dir + "/machines/short.yaml");
@@ -214,32 +214,32 @@ TEST_F(MissionLoader, StartIsAList) {
 }
 
 TEST_F(MissionLoader, TargetsNotAList) {
-  const std::string text = "mission: a\nmap: map.yaml\nrobot: robot.yaml\n"
-                           "start: {x: 0, y: 0, yaw_deg: 0}\ntargets: rabbit\n";
+  const std::string text =
+      "mission: a\nmap: map.yaml\nrobot: robot.yaml\n"
+      "start: {x: 0, y: 0, yaw_deg: 0}\ntargets: rabbit\n";
   EXPECT_THAT(mission_errors(text),
               ElementsAre(dir + "/m.yaml:5:10: targets: expected a list, got \"rabbit\""));
 }
 
 TEST_F(MissionLoader, TargetsEmpty) {
-  const std::string text = "mission: a\nmap: map.yaml\nrobot: robot.yaml\n"
-                           "start: {x: 0, y: 0, yaw_deg: 0}\ntargets: []\n";
+  const std::string text =
+      "mission: a\nmap: map.yaml\nrobot: robot.yaml\n"
+      "start: {x: 0, y: 0, yaw_deg: 0}\ntargets: []\n";
   EXPECT_THAT(mission_errors(text),
               ElementsAre(dir + "/m.yaml:5:10: targets: expected at least one target"));
 }
 
 TEST_F(MissionLoader, TargetIsAScalar) {
-  EXPECT_THAT(
-      mission_errors(replace(kMission, "  - id: hare\n", "  - hare\n  - id: hare\n")),
-      ElementsAre(dir + "/m.yaml:13:5: targets[1]: expected a mapping, got \"hare\""));
+  EXPECT_THAT(mission_errors(replace(kMission, "  - id: hare\n", "  - hare\n  - id: hare\n")),
+              ElementsAre(dir + "/m.yaml:13:5: targets[1]: expected a mapping, got \"hare\""));
 }
 
 TEST_F(MissionLoader, ModelPointsIsAScalar) {
-  EXPECT_THAT(
-      mission_errors(replace(kMission,
-                             "[[0.1, 0.0, 0.1], [0.1, 0.1, 0.1], [0.1, 0.1, 0.0], [0.1, 0.0, 0.0]]",
-                             "corners")),
-      ElementsAre(dir + "/m.yaml:16:19: targets[1].model_points: expected a list, got "
-                        "\"corners\""));
+  EXPECT_THAT(mission_errors(replace(
+                  kMission, "[[0.1, 0.0, 0.1], [0.1, 0.1, 0.1], [0.1, 0.1, 0.0], [0.1, 0.0, 0.0]]",
+                  "corners")),
+              ElementsAre(dir + "/m.yaml:16:19: targets[1].model_points: expected a list, got "
+                                "\"corners\""));
 }
 
 TEST_F(MissionLoader, OrderNotOneOfTheWords) {
@@ -305,24 +305,25 @@ TEST_F(MissionLoader, UnknownTargetKeySuggests) {
 TEST_F(MissionLoader, UnknownPoseKeySuggestsAndYawIsMissing) {
   EXPECT_THAT(
       mission_errors(replace(kMission, "yaw_deg: -90", "yaw_dg: -90")),
-      ElementsAre(
-          dir + "/m.yaml:15:36: targets[1].pose.yaw_dg: unknown key \"yaw_dg\"; did you mean "
-                "\"yaw_deg\"?",
-          dir + "/m.yaml:15:11: targets[1].pose.yaw_deg: missing required field"));
+      ElementsAre(dir +
+                      "/m.yaml:15:36: targets[1].pose.yaw_dg: unknown key \"yaw_dg\"; did you mean "
+                      "\"yaw_deg\"?",
+                  dir + "/m.yaml:15:11: targets[1].pose.yaw_deg: missing required field"));
 }
 
 TEST_F(MissionLoader, UnknownStartKeyWithoutCloseMatch) {
-  EXPECT_THAT(
-      mission_errors(replace(kMission, "yaw_deg: 90}", "yaw_deg: 90, heading: 1}")),
-      ElementsAre(dir + "/m.yaml:4:38: start.heading: unknown key \"heading\""));
+  EXPECT_THAT(mission_errors(replace(kMission, "yaw_deg: 90}", "yaw_deg: 90, heading: 1}")),
+              ElementsAre(dir + "/m.yaml:4:38: start.heading: unknown key \"heading\""));
 }
 
 // ---------------------------------------------------------------- files
 
 TEST_F(MissionLoader, MissingModelFileNamesBothPaths) {
   EXPECT_THAT(mission_errors(replace(kMission, "model: bunny.ply", "model: models/rabbit.ply")),
-              ElementsAre(dir + "/m.yaml:7:12: targets[0].model: file \"models/rabbit.ply\" not "
-                                "found (looked at " + dir + "/models/rabbit.ply)"));
+              ElementsAre(dir +
+                          "/m.yaml:7:12: targets[0].model: file \"models/rabbit.ply\" not "
+                          "found (looked at " +
+                          dir + "/models/rabbit.ply)"));
 }
 
 TEST_F(MissionLoader, MissingMapFile) {
@@ -333,14 +334,16 @@ TEST_F(MissionLoader, MissingMapFile) {
 
 TEST_F(MissionLoader, MissingContentFile) {
   EXPECT_THAT(mission_errors(replace(kMission, "content: sale.png", "content: spring.png")),
-              ElementsAre(dir + "/m.yaml:10:14: targets[0].content: file \"spring.png\" not "
-                                "found (looked at " + dir + "/spring.png)"));
+              ElementsAre(dir +
+                          "/m.yaml:10:14: targets[0].content: file \"spring.png\" not "
+                          "found (looked at " +
+                          dir + "/spring.png)"));
 }
 
 TEST_F(MissionLoader, MissingRobotFile) {
   EXPECT_THAT(mission_errors(replace(kMission, "robot: robot.yaml", "robot: ud.yaml")),
-              ElementsAre(dir + "/m.yaml:3:8: robot: file \"ud.yaml\" not found (looked at " +
-                          dir + "/ud.yaml)"));
+              ElementsAre(dir + "/m.yaml:3:8: robot: file \"ud.yaml\" not found (looked at " + dir +
+                          "/ud.yaml)"));
 }
 
 TEST_F(MissionLoader, ModelOfUnknownFormat) {
@@ -353,14 +356,18 @@ TEST_F(MissionLoader, ModelOfUnknownFormat) {
 TEST_F(MissionLoader, ContentThatIsNoImage) {
   write("broken.png", "this is text, not a PNG");
   EXPECT_THAT(mission_errors(replace(kMission, "content: sale.png", "content: broken.png")),
-              ElementsAre(dir + "/m.yaml:10:14: targets[0].content: file \"broken.png\" is not "
-                                "an image OpenCV can read (" + dir + "/broken.png)"));
+              ElementsAre(dir +
+                          "/m.yaml:10:14: targets[0].content: file \"broken.png\" is not "
+                          "an image OpenCV can read (" +
+                          dir + "/broken.png)"));
 }
 
 TEST_F(MissionLoader, MachineFileMissing) {
   EXPECT_THAT(mission_errors(replace(kMission, "machine: default", "machine: tour.yaml")),
-              ElementsAre(dir + "/m.yaml:18:10: machine: file \"tour.yaml\" not found (looked "
-                                "at " + dir + "/tour.yaml)"));
+              ElementsAre(dir +
+                          "/m.yaml:18:10: machine: file \"tour.yaml\" not found (looked "
+                          "at " +
+                          dir + "/tour.yaml)"));
 }
 
 TEST_F(MissionLoader, MachineFileNotAMapping) {
@@ -438,11 +445,17 @@ TEST_F(MissionLoader, YawOutOfRange) {
                                 "degrees within [-360, 360], got -450"));
 }
 
+TEST_F(MissionLoader, RepeatedKeyIsAnError) {
+  EXPECT_THAT(mission_errors(replace(kMission, "dwell_s: 15", "dwell_s: 15\n    dwell_s: 20")),
+              ElementsAre(dir + "/m.yaml:13:5: targets[0].dwell_s: duplicate key \"dwell_s\" "
+                                "(first at line 12)"));
+}
+
 TEST_F(MissionLoader, SeveralErrorsAllReportedInFileOrder) {
   std::string text = replace(kMission, "robot: robot.yaml", "robot: robot.yaml\ncolour: red");
-  text = replace(text, "yaw_deg: 180", "yaw_deg: north");           // line 9
-  text = replace(text, "content: sale.png", "content: missing.png");  // line 11
-  text = replace(text, "id: hare", "id: rabbit");                     // line 14
+  text = replace(text, "yaw_deg: 180", "yaw_deg: north");                         // line 9
+  text = replace(text, "content: sale.png", "content: missing.png");              // line 11
+  text = replace(text, "id: hare", "id: rabbit");                                 // line 14
   text = replace(text, "[0.1, 0.1, 0.0], [0.1, 0.0, 0.0]]", "[0.1, 0.1, 0.0]]");  // line 17
   EXPECT_THAT(
       mission_errors(text),

@@ -57,8 +57,8 @@ TEST_F(RobotLoader, PitchTurnsTheCameraNoseDown) {
   const Eigen::Vector3d axis = robot->camera.mount.T_link_body.linear() * Eigen::Vector3d::UnitX();
   EXPECT_NEAR(axis.z(), -std::sin(deg_to_rad(20.0)), 1e-12);
   EXPECT_NEAR(axis.x(), std::cos(deg_to_rad(20.0)), 1e-12);
-  EXPECT_TRUE(robot->camera.mount.T_link_body.translation().isApprox(
-      Eigen::Vector3d(0.08, 0, 0.25)));
+  EXPECT_TRUE(
+      robot->camera.mount.T_link_body.translation().isApprox(Eigen::Vector3d(0.08, 0, 0.25)));
 }
 
 TEST_F(RobotLoader, OptionalFieldsTakeDefaults) {
@@ -79,6 +79,21 @@ TEST_F(RobotLoader, OptionalFieldsTakeDefaults) {
   EXPECT_EQ(robot->services.at("localization").kind, "mrpt_localization");
   EXPECT_FALSE(robot->services.at("localization").params.IsDefined());
   EXPECT_EQ(robot->services.at("localization").params_path, "services.localization.params");
+}
+
+// A driver written without params used to get a default-constructed YAML::Node, which is Null
+// (as if "params: ~" had been written), not Undefined as PluginInstanceSpec documents.
+TEST_F(RobotLoader, Regression_AbsentDriverParamsAreUndefinedNotNull) {
+  Diagnostics diag;
+  const auto robot =
+      load_robot(write("r.yaml", replace(kRobot, ", params: {port: /dev/ttyUSB0}", "")), diag);
+  ASSERT_TRUE(robot) << diag.format();
+  const PluginInstanceSpec& pan_tilt = robot->drivers.at("pan_tilt");
+  EXPECT_EQ(pan_tilt.kind, "ptu_dperception");
+  EXPECT_FALSE(pan_tilt.params.IsDefined());
+  EXPECT_EQ(pan_tilt.params_path, "drivers.pan_tilt.params");
+  EXPECT_EQ(pan_tilt.mark.line, 31);
+  EXPECT_EQ(pan_tilt.mark.column, 13);
 }
 
 // ---------------------------------------------------------------- bad input

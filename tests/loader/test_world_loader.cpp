@@ -94,14 +94,18 @@ TEST_F(WorldLoader, ShippedExampleLoadsAgainstAMissionWithItsTarget) {
 
 TEST_F(WorldLoader, UnknownTargetIdSuggests) {
   EXPECT_THAT(world_errors(replace(kWorld, "rabbit:", "rabit:")),
-              ElementsAre(dir + "/w.yaml:3:3: targets.rabit: unknown target \"rabit\" (not in "
-                                "mission " + dir + "/m.yaml); did you mean \"rabbit\"?"));
+              ElementsAre(dir +
+                          "/w.yaml:3:3: targets.rabit: unknown target \"rabit\" (not in "
+                          "mission " +
+                          dir + "/m.yaml); did you mean \"rabbit\"?"));
 }
 
 TEST_F(WorldLoader, FaultOnUnknownTarget) {
   EXPECT_THAT(world_errors(replace(kWorld, "target: hare", "target: fox")),
-              ElementsAre(dir + "/w.yaml:11:14: faults[1].target: unknown target \"fox\" (not "
-                                "in mission " + dir + "/m.yaml)"));
+              ElementsAre(dir +
+                          "/w.yaml:11:14: faults[1].target: unknown target \"fox\" (not "
+                          "in mission " +
+                          dir + "/m.yaml)"));
 }
 
 TEST_F(WorldLoader, UnknownFaultType) {
@@ -144,6 +148,14 @@ TEST_F(WorldLoader, ModelErrorEnabledNotABool) {
   EXPECT_THAT(world_errors(replace(kWorld, "enabled: false", "enabled: 0.5")),
               ElementsAre(dir + "/w.yaml:7:24: model_error.enabled: expected true or false, got "
                                 "\"0.5\""));
+}
+
+TEST_F(WorldLoader, TargetListedTwice) {
+  EXPECT_THAT(
+      world_errors(replace(kWorld, "target_offset:",
+                           "  rabbit: {pose: {x: 6, y: 2, z: 0.9, yaw_deg: 0}}\ntarget_offset:")),
+      ElementsAre(dir + "/w.yaml:5:3: targets.rabbit: duplicate key \"rabbit\" (first at line "
+                        "3)"));
 }
 
 TEST_F(WorldLoader, TruePoseUnknownKeySuggests) {

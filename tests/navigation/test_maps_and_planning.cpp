@@ -139,12 +139,12 @@ MissionSpec corridor_mission() {
     m.targets.push_back(t);
   };
   add(20.0, 3.2, -kPi / 2, 10);  // on the corridor's wall, facing into it: fine
-  add(12.0, 11.0, kPi / 2, 20);  // stand-off at (12, 12): outside the map
+  add(12.0, 11.5, kPi / 2, 20);  // stand-off at (12, 12.5): outside the map
   add(40.0, 2.0, kPi, 30);       // off the map
   add(12.0, 5.0, -kPi / 2, 40);  // stand-off (12, 4): in the unknown between corridor and room
-  add(12.0, 9.0, kPi / 2, 50);   // stand-off (12, 10) on the room's wall
+  add(5.0, 1.95, -kPi / 2, 50);  // stand-off (5, 0.95) in the corridor's wall
   add(12.0, 7.0, kPi / 2, 60);   // stand-off (12, 8): inside the closed room
-  add(20.0, 2.1, kPi / 2, 70);   // stand-off (20, 3.1): free, but 0.1 m from the wall
+  add(20.0, 1.8, kPi / 2, 70);   // stand-off (20, 2.8): free, but 0.2 m from the wall
   return m;
 }
 
@@ -155,14 +155,14 @@ TEST(ValidateAgainstMap, ReportsEachProblemAtItsField) {
   std::vector<std::string> lines;
   for (const auto& d : diag.items()) lines.push_back(d.format());
   const std::vector<std::string> expected = {
-      "m.yaml:21:17: targets[1].standoff_m: stand-off pose (12.00, 12.00) is outside the map",
+      "m.yaml:21:17: targets[1].standoff_m: stand-off pose (12.00, 12.50) is outside the map",
       "m.yaml:30:11: targets[2].pose: target (40.00, 2.00) is outside the map (x 0.00..30.00, y "
       "0.00..12.00)",
       "m.yaml:41:17: targets[3].standoff_m: stand-off pose (12.00, 4.00) is in an unknown cell",
-      "m.yaml:51:17: targets[4].standoff_m: stand-off pose (12.00, 10.00) is in an occupied cell",
+      "m.yaml:51:17: targets[4].standoff_m: stand-off pose (5.00, 0.95) is in an occupied cell",
       "m.yaml:61:17: targets[5].standoff_m: stand-off pose (12.00, 8.00) is not reachable from "
       "the start",
-      "m.yaml:71:17: targets[6].standoff_m: stand-off pose (20.00, 3.10) is closer than the "
+      "m.yaml:71:17: targets[6].standoff_m: stand-off pose (20.00, 2.80) is closer than the "
       "robot's radius (0.35 m) to an obstacle",
   };
   EXPECT_EQ(lines, expected);

@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include "nav_rig.hpp"
@@ -65,6 +66,45 @@ INSTANTIATE_TEST_SUITE_P(DemoMap, NavigateCorridors,
                          [](const ::testing::TestParamInfo<CorridorGoal>& info) {
                            return info.param.name;
                          });
+
+// The accuracy figure: localization error on arrival at stand-off poses, median over
+// targets and 5 seeds, must be within 5 cm and 2 degrees.
+TEST(NavigateAccuracy, MedianArrivalLocalizationErrorOverTargetsAndSeeds) {
+  struct Leg {
+    Pose2D start, goal;
+  };
+  const std::vector<Leg> legs = {
+      {{14.0, 1.0, 0.0}, {24.0, 1.5, kPi / 2}},           // north corridor, facing its wall
+      {{22.0, -2.0, -kPi / 2}, {22.5, -12.0, 0.0}},       // second corridor
+      {{42.0, -30.0, kPi / 2}, {41.5, -20.0, kPi}},       // third corridor
+      {{-4.0, -30.0, -kPi / 2}, {-4.0, -40.0, -kPi / 2}}  // first corridor
+  };
+  std::vector<double> trans_m, rot_deg;
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    for (const Leg& leg : legs) {
+      Rig rig(kDemoMap, leg.start, seed);
+      rig.idle(1.0);
+      const TargetSpec target = target_for_goal("t", leg.goal);
+      const auto outcome = rig.run("navigate", rig.defaults("navigate"), &target, 120.0);
+      ASSERT_TRUE(outcome.has_value());
+      ASSERT_EQ(outcome->name, "succeeded") << outcome->message;
+      trans_m.push_back(distance_m(rig.estimate().mean, rig.world().truth));
+      rot_deg.push_back(rad_to_deg(heading_error_rad(rig.estimate().mean, rig.world().truth)));
+    }
+  }
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+  };
+  const double worst_m = *std::max_element(trans_m.begin(), trans_m.end());
+  const double worst_deg = *std::max_element(rot_deg.begin(), rot_deg.end());
+  std::printf(
+      "[ figures ] arrival localization error over %zu arrivals: median %.4f m %.3f deg, "
+      "worst %.4f m %.3f deg\n",
+      trans_m.size(), median(trans_m), median(rot_deg), worst_m, worst_deg);
+  EXPECT_LE(median(trans_m), 0.05);
+  EXPECT_LE(median(rot_deg), 2.0);
+}
 
 TEST(NavigateOutcomes, UnreachableWhenTheGoalIsInAClosedRoom) {
   const auto map = write_corridor_map(temp_dir());

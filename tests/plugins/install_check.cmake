@@ -21,4 +21,4 @@ add_test(NAME plugins_install_template
     -DCHECK_PROGRAM=$<TARGET_FILE:test_template_plugin>
     -DCHECK_CLI=${PROJTOUR_INSTALL_TEST_CLI}
     -P ${CMAKE_CURRENT_SOURCE_DIR}/install_check_run.cmake)
-set_tests_properties(plugins_install_template PROPERTIES LABELS "install;plugins" TIMEOUT 180)
+set_tests_properties(plugins_install_template PROPERTIES LABELS install TIMEOUT 180)

@@ -50,8 +50,9 @@ class PluginRegistry {
   PluginRegistry& operator=(const PluginRegistry&) = delete;
 
   // The search path: each --plugin-path, then each entry of PROJTOUR_PLUGIN_PATH (':'-separated),
-  // then the build tree's and the install tree's plugin directories. Never the current
-  // directory unless named.
+  // then the build tree's and the install tree's plugin directories (and, when core runs from
+  // a moved or `--prefix`ed installation, <core's libdir>/projtour/plugins). Never the current
+  // directory unless named; empty entries are skipped.
   static std::vector<std::filesystem::path> search_path(
       const std::vector<std::filesystem::path>& cli_paths);
 
@@ -60,7 +61,9 @@ class PluginRegistry {
   // plugin already provides (naming both files).
   void load_library(const std::filesystem::path& file);
   // Loads every lib*.so in each directory (missing directories are skipped). Files that fail
-  // are returned as messages rather than thrown, so one bad file does not hide the rest.
+  // are returned as messages rather than thrown, so one bad file does not hide the rest. Like
+  // PATH, a file name found in an earlier directory shadows the same name in later ones (a
+  // build tree and an installed copy of one plugin do not collide).
   std::vector<std::string> load_directories(const std::vector<std::filesystem::path>& dirs);
 
   const KindInfo* find(const std::string& kind) const;

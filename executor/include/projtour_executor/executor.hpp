@@ -141,6 +141,8 @@ class Executor {
   std::vector<std::string> ignored_cancel_;
   std::size_t transition_count_ = 0;
   std::size_t transitions_this_tick_ = 0;
+  double start_s_ = 0.0;
+  long long ticks_ = 0;
 };
 
 }  // namespace projtour

@@ -31,19 +31,11 @@ struct PclRegistration::Impl {
   std::shared_ptr<const IcpModel> model;
   PclMethod method;
   PclOptions options;
-  Cloud::Ptr source{new Cloud};
 };
 
 PclRegistration::PclRegistration(std::shared_ptr<const IcpModel> model, PclMethod method,
                                  const PclOptions& options)
-    : impl_(new Impl{std::move(model), method, options}) {
-  const auto& points = impl_->model->points();
-  const std::size_t n = std::min(points.size(), options.max_model_points);
-  impl_->source->reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    impl_->source->push_back(pcl::PointXYZ(points[i].x(), points[i].y(), points[i].z()));
-  }
-}
+    : impl_(new Impl{std::move(model), method, options}) {}
 
 PclRegistration::~PclRegistration() = default;
 
@@ -74,6 +66,17 @@ RegistrationResult PclRegistration::align(const OrganizedCloud& scene,
     result.scene_points = target->size();
     return result;
   }
+  // The model side facing the camera at the guess, as the projective ICP uses: closest-point
+  // ICP would otherwise drag the hidden back side onto the visible front and the floor.
+  Cloud::Ptr source(new Cloud);
+  const auto& points = impl_->model->points();
+  const auto& normals = impl_->model->normals();
+  const Eigen::Matrix3f R = T_camera_model_guess.linear().cast<float>();
+  const Eigen::Vector3f t = T_camera_model_guess.translation().cast<float>();
+  for (std::size_t i = 0; i < std::min(points.size(), impl_->options.max_model_points); ++i) {
+    if ((R * normals[i]).dot(R * points[i] + t - scene.depth_to_color_m) >= 0.0f) continue;
+    source->push_back(pcl::PointXYZ(points[i].x(), points[i].y(), points[i].z()));
+  }
   const Eigen::Matrix4f guess = T_camera_model_guess.matrix().cast<float>();
   Cloud aligned;
   Eigen::Matrix4f final_transform;
@@ -82,7 +85,7 @@ RegistrationResult PclRegistration::align(const OrganizedCloud& scene,
   if (impl_->method == PclMethod::icp) {
     Icp icp;
     configure(icp, impl_->options);
-    icp.setInputSource(impl_->source);
+    icp.setInputSource(source);
     icp.setInputTarget(target);
     icp.align(aligned, guess);
     converged = icp.hasConverged();
@@ -91,7 +94,7 @@ RegistrationResult PclRegistration::align(const OrganizedCloud& scene,
   } else {
     Gicp gicp;
     configure(gicp, impl_->options);
-    gicp.setInputSource(impl_->source);
+    gicp.setInputSource(source);
     gicp.setInputTarget(target);
     gicp.align(aligned, guess);
     converged = gicp.hasConverged();

@@ -63,6 +63,7 @@ class SimWorld : public GroundTruth {
   bool base_moving() const;
 
   // Laser.
+  void set_laser_occupancy_threshold(double threshold);
   std::optional<LaserScan> take_scan();
 
   // Pan-tilt.
@@ -74,9 +75,11 @@ class SimWorld : public GroundTruth {
   JointAngles true_head() const;
 
   // Depth camera.
+  void set_max_incidence_deg(double deg);
   std::optional<DepthFrame> grab();
 
-  // Projector.
+  // Projector. Events also go, one JSON object a line, to the log file once one is set.
+  void set_projector_log_file(const std::filesystem::path& file);
   void show(const cv::Mat& frame_bgr);
   void blank();
   bool is_blank() const;

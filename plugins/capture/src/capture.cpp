@@ -1,0 +1,104 @@
+// Behaviour `capture`: takes depth frames from the depth camera driver, averages them, and puts
+// the result on the blackboard for align.
+#include <memory>
+#include <sstream>
+#include <vector>
+
+#include "projtour/blackboard_keys.hpp"
+#include "projtour/plugin_author.hpp"
+#include "projtour/registration.hpp"
+
+namespace projtour::capture {
+namespace {
+
+struct Settings {
+  long long average_frames = 1;
+  double max_wait_s = 2.0;
+};
+
+Settings read_settings(const Params& p) {
+  Settings s;
+  s.average_frames = p.integer("average_frames");
+  s.max_wait_s = p.number("max_wait_s");
+  if (s.average_frames < 1 || s.average_frames > 100) {
+    throw std::invalid_argument("average_frames: must lie in [1, 100]");
+  }
+  if (!(s.max_wait_s > 0.0)) throw std::invalid_argument("max_wait_s: must be > 0");
+  return s;
+}
+
+int validate(const void* params, char* error, size_t error_size) {
+  try {
+    read_settings(*static_cast<const Params*>(params));
+    return 0;
+  } catch (const std::exception& e) {
+    plugin_detail::copy_message(e.what(), error, error_size);
+    return 1;
+  }
+}
+
+class Capture : public Behaviour {
+ public:
+  Capture(const Params& params, const RunContext&) : settings_(read_settings(params)) {}
+
+  void start(Context& ctx) override {
+    frames_.clear();
+    dropped_ = 0;
+    started_s_ = ctx.now_s();
+  }
+
+  std::optional<Outcome> tick(Context& ctx) override {
+    if (ctx.cancel_requested()) return Outcome{kOutcomeCancelled, "cancelled"};
+    DepthCameraDriver* camera = ctx.drivers().depth_camera.get();
+    if (camera == nullptr) return Outcome{kOutcomeFailed, "no depth camera driver"};
+    try {
+      while (auto frame = camera->grab()) {
+        // A dropped frame arrives with no readings: it would only thin the average.
+        if (frame->valid_count() == 0) {
+          ++dropped_;
+          continue;
+        }
+        frames_.push_back(std::move(*frame));
+        if (frames_.size() >= static_cast<std::size_t>(settings_.average_frames)) break;
+      }
+    } catch (const DriverError& e) {
+      return Outcome{kOutcomeFailed, std::string("depth camera: ") + e.what()};
+    }
+    if (frames_.size() >= static_cast<std::size_t>(settings_.average_frames)) {
+      auto frame = std::make_shared<const DepthFrame>(
+          frames_.size() == 1 ? std::move(frames_.front()) : average_depth_frames(frames_));
+      std::ostringstream what;
+      what << frames_.size() << " frame(s), " << frame->valid_count() << " readings";
+      ctx.blackboard().set<std::shared_ptr<const DepthFrame>>(keys::kDepthFrame, std::move(frame));
+      frames_.clear();
+      return Outcome{"succeeded", what.str()};
+    }
+    if (ctx.now_s() - started_s_ > settings_.max_wait_s) {
+      std::ostringstream why;
+      why << "got " << frames_.size() << " of " << settings_.average_frames << " frame(s) in "
+          << settings_.max_wait_s << " s (" << dropped_ << " dropped)";
+      return Outcome{"no_frame", why.str()};
+    }
+    return std::nullopt;
+  }
+
+ private:
+  Settings settings_;
+  std::vector<DepthFrame> frames_;
+  int dropped_ = 0;
+  double started_s_ = 0.0;
+};
+
+const projtour_param_desc kParams[] = {
+    {"average_frames", "integer", "1", "frames averaged pixel by pixel into one"},
+    {"max_wait_s", "number", "2.0", "no_frame when the frames have not arrived by then"},
+};
+const char* const kOutcomes[] = {"succeeded", "no_frame"};
+const projtour_kind_desc kKinds[] = {behaviour_kind<Capture>(
+    "capture", "a depth frame from the depth camera onto the blackboard", kParams, kOutcomes,
+    &validate)};
+
+}  // namespace
+}  // namespace projtour::capture
+
+PROJTOUR_PLUGIN("capture", "1.0.0", projtour::capture::kKinds)

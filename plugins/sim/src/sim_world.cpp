@@ -1,0 +1,775 @@
+// The simulated world: base, laser, head, camera and projector over one shared truth.
+#include "projtour_sim/sim_world.hpp"
+
+#include <mrpt/kinematics/CVehicleSimul_DiffDriven.h>
+#include <mrpt/maps/COccupancyGridMap2D.h>
+#include <mrpt/obs/CObservation2DRangeScan.h>
+#include <mrpt/poses/CPose2D.h>
+#include <mrpt/poses/CPose3D.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <opencv2/core.hpp>
+#include <random>
+
+#include "projtour/geometry.hpp"
+#include "projtour/kinematics.hpp"
+#include "projtour/model.hpp"
+#include "projtour/occupancy_map.hpp"
+#include "projtour_sim/depth_renderer.hpp"
+#include "projtour_sim/kinect_noise.hpp"
+#include "sim_internal.hpp"
+
+namespace projtour::sim {
+namespace {
+
+// Object ids in the rendered scene.
+constexpr int kFloorId = 0;
+constexpr int kWallId = 1;
+constexpr int kObstacleId = 2;
+constexpr int kFirstTargetId = 10;
+
+// Independent random streams, so e.g. grabbing one more frame does not change the laser noise.
+enum class Stream : std::uint64_t { setup = 1, odometry, laser, encoder, depth, faults };
+
+std::uint64_t splitmix64(std::uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+std::mt19937_64 stream(std::uint64_t seed, Stream s) {
+  return std::mt19937_64(splitmix64(seed * 0x100000001B3ull + static_cast<std::uint64_t>(s)));
+}
+
+double uniform(std::mt19937_64& rng, double lo, double hi) {
+  return lo + (hi - lo) * static_cast<double>(rng() >> 11) * 0x1.0p-53;
+}
+
+double gaussian(std::mt19937_64& rng) {
+  // Box-Muller on the raw engine output: reproducible across standard libraries.
+  const double u1 = (static_cast<double>(rng() >> 11) + 0.5) * 0x1.0p-53;
+  const double u2 = static_cast<double>(rng() >> 11) * 0x1.0p-53;
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
+}
+
+Eigen::Vector3d random_unit(std::mt19937_64& rng) {
+  const double z = uniform(rng, -1.0, 1.0), phi = uniform(rng, 0.0, 2.0 * kPi);
+  const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
+double fault_value(const FaultSpec& f, const std::string& key, double fallback) {
+  const auto it = f.values.find(key);
+  return it == f.values.end() ? fallback : it->second;
+}
+
+mrpt::poses::CPose3D to_cpose3d(const Eigen::Isometry3d& T) {
+  const Eigen::Vector3d ypr = T.linear().eulerAngles(2, 1, 0);
+  const Eigen::Vector3d t = T.translation();
+  return mrpt::poses::CPose3D(t.x(), t.y(), t.z(), ypr[0], ypr[1], ypr[2]);
+}
+
+// The true surface differs from the robot's model by a smooth field of about `rms_m` along the
+// vertex normals: a sum of random plane waves of 4 to 15 cm wavelength, as a Kinect Fusion scan
+// differs from the object it was made of.
+TriangleMesh perturbed_mesh(const TriangleMesh& mesh, double rms_m, std::mt19937_64& rng) {
+  if (rms_m <= 0.0) return mesh;
+  std::vector<Eigen::Vector3f> normals(mesh.vertices.size(), Eigen::Vector3f::Zero());
+  for (const Eigen::Vector3i& f : mesh.triangles) {
+    const Eigen::Vector3f n = (mesh.vertices[f[1]] - mesh.vertices[f[0]])
+                                  .cross(mesh.vertices[f[2]] - mesh.vertices[f[0]]);
+    for (int k = 0; k < 3; ++k) normals[f[k]] += n;  // area-weighted
+  }
+  constexpr int kWaves = 12;
+  std::array<Eigen::Vector3d, kWaves> k_vec;
+  std::array<double, kWaves> phase;
+  for (int w = 0; w < kWaves; ++w) {
+    k_vec[w] = random_unit(rng) * (2.0 * kPi / uniform(rng, 0.04, 0.15));
+    phase[w] = uniform(rng, 0.0, 2.0 * kPi);
+  }
+  std::vector<double> field(mesh.vertices.size());
+  double sum2 = 0.0;
+  for (std::size_t i = 0; i < field.size(); ++i) {
+    double f = 0.0;
+    for (int w = 0; w < kWaves; ++w)
+      f += std::sin(k_vec[w].dot(mesh.vertices[i].cast<double>()) + phase[w]);
+    field[i] = f;
+    sum2 += f * f;
+  }
+  const double scale = sum2 > 0.0 ? rms_m / std::sqrt(sum2 / field.size()) : 0.0;
+  TriangleMesh out = mesh;
+  for (std::size_t i = 0; i < field.size(); ++i) {
+    const float len = normals[i].norm();
+    if (len > 0.0f) out.vertices[i] += static_cast<float>(field[i] * scale) * (normals[i] / len);
+  }
+  return out;
+}
+
+}  // namespace
+
+struct SimWorld::Impl {
+  struct Target {
+    const TargetSpec* spec = nullptr;
+    int object_id = 0;
+    Eigen::Isometry3d T_map_model = Eigen::Isometry3d::Identity();
+    TriangleMesh mesh_true;  // model frame, the perturbed surface
+    Scene alone;             // the true mesh in the map frame, nothing else
+    bool missing = false;
+    Pose2D standoff;
+    int frames_here = 0;
+    int shows_here = 0;
+    bool kidnapped = false;
+  };
+  struct Box2 {
+    Eigen::Vector2d lo, hi;
+  };
+
+  const RunContext* run = nullptr;
+  const MissionSpec* mission = nullptr;
+  WorldSpec world;
+  std::uint64_t seed = 1;
+  std::shared_ptr<mrpt::maps::COccupancyGridMap2D> grid;  // the map plus added obstacles
+
+  std::vector<Target> targets;
+  std::vector<Box2> obstacles;  // blocked_path boxes, for the bumper
+  Scene scene;
+  std::unique_ptr<DepthRenderer> depth_renderer;
+  KinectNoiseParams kinect;
+  std::unique_ptr<HeadKinematics> head_true;
+
+  std::mt19937_64 rng_odometry, rng_laser, rng_encoder, rng_depth, rng_faults;
+
+  double t_s = 0.0;
+  bool started = false;
+
+  // Base.
+  mrpt::kinematics::CVehicleSimul_DiffDriven vehicle;
+  double collision_radius_m = 0.15;
+  Pose2D odometry_pose;
+  double odometry_v = 0.0, odometry_w = 0.0;
+  double odometry_trans_bias = 0.0, odometry_rot_bias = 0.0;
+  bool blocked = false;
+  bool moving = false;
+
+  // Laser.
+  float laser_threshold = 0.6f;
+  double next_scan_s = 0.0;
+  std::optional<LaserScan> scan;
+
+  // Head.
+  JointAngles q_true, q_command, q_measured;
+  double settle_s = 0.1;
+  double at_rest_since_s = 0.0;
+  bool head_moving_now = false;
+
+  // Camera.
+  double next_frame_s = 0.0;
+  std::optional<double> frame_due_s;
+  std::uint64_t frame_sequence = 0;
+  IdealDepth ideal;
+
+  // Projector.
+  bool lit = false;
+  std::vector<ProjectorEvent> projector_log;
+  double lit_moving_s = 0.0;
+  std::ofstream projector_jsonl;
+
+  Target* target(const std::string& id) {
+    for (auto& t : targets) {
+      if (t.spec->id == id) return &t;
+    }
+    return nullptr;
+  }
+  const Target* target(const std::string& id) const { return const_cast<Impl*>(this)->target(id); }
+
+  const FaultSpec* fault(const std::string& target_id, const std::string& type) const {
+    for (const auto& f : world.faults) {
+      if (f.target == target_id && f.type == type) return &f;
+    }
+    return nullptr;
+  }
+
+  Pose2D true_pose() const {
+    const auto& p = vehicle.getCurrentGTPose();
+    return {p.x, p.y, p.phi};
+  }
+
+  Target* active() {
+    const Pose2D p = true_pose();
+    Target* best = nullptr;
+    double best_d = 0.0;
+    for (auto& t : targets) {
+      const double d = std::hypot(t.T_map_model.translation().x() - p.x_m,
+                                  t.T_map_model.translation().y() - p.y_m);
+      if (d <= t.spec->standoff_m + 1.5 && (best == nullptr || d < best_d)) {
+        best = &t;
+        best_d = d;
+      }
+    }
+    return best;
+  }
+
+  bool collides(const Pose2D& p) const {
+    for (const auto& b : obstacles) {
+      const Eigen::Vector2d c(std::clamp(p.x_m, b.lo.x(), b.hi.x()),
+                              std::clamp(p.y_m, b.lo.y(), b.hi.y()));
+      if ((c - Eigen::Vector2d(p.x_m, p.y_m)).norm() < collision_radius_m) return true;
+    }
+    if (!grid) return false;
+    const double res = grid->getResolution();
+    const int reach = static_cast<int>(std::ceil(collision_radius_m / res));
+    const int cx = grid->x2idx(p.x_m), cy = grid->y2idx(p.y_m);
+    for (int j = cy - reach; j <= cy + reach; ++j) {
+      for (int i = cx - reach; i <= cx + reach; ++i) {
+        if (i < 0 || j < 0 || i >= static_cast<int>(grid->getSizeX()) ||
+            j >= static_cast<int>(grid->getSizeY())) {
+          continue;  // off the map counts as unknown, not as a wall
+        }
+        if (grid->getCell(i, j) >= 0.5f) continue;
+        if (std::hypot(grid->idx2x(i) - p.x_m, grid->idx2y(j) - p.y_m) <=
+            collision_radius_m + 0.5 * res) {
+          return true;
+        }
+      }
+    }
+    return false;
+  }
+
+  void step_base(double dt_s) {
+    const Pose2D before = true_pose();
+    vehicle.simulateOneTimeStep(dt_s);
+    Pose2D after = true_pose();
+    if (collides(after) && !collides(before)) {
+      // The bumper: the base stops where it was; pushing on keeps it there.
+      vehicle.setCurrentGTPose(mrpt::math::TPose2D(before.x_m, before.y_m, before.yaw_rad));
+      vehicle.movementCommand(0.0, 0.0);
+      vehicle.setV(0.0);
+      vehicle.setW(0.0);
+      blocked = true;
+      after = before;
+    } else if (std::hypot(after.x_m - before.x_m, after.y_m - before.y_m) > 1e-9) {
+      blocked = false;  // moved freely again
+    }
+    // Odometry integrates the true local increment with a per-run scale bias and white noise.
+    const mrpt::poses::CPose2D delta = mrpt::poses::CPose2D(after.x_m, after.y_m, after.yaw_rad) -
+                                       mrpt::poses::CPose2D(before.x_m, before.y_m, before.yaw_rad);
+    const double trans_noise = world.odometry_trans_noise_frac * 0.3 * gaussian(rng_odometry);
+    const double rot_noise = world.odometry_rot_noise_frac * 0.3 * gaussian(rng_odometry);
+    const double ts = 1.0 + odometry_trans_bias + trans_noise;
+    const double rs = 1.0 + odometry_rot_bias + rot_noise;
+    const mrpt::poses::CPose2D measured(delta.x() * ts, delta.y() * ts, delta.phi() * rs);
+    const mrpt::poses::CPose2D odo =
+        mrpt::poses::CPose2D(odometry_pose.x_m, odometry_pose.y_m, odometry_pose.yaw_rad) +
+        measured;
+    odometry_pose = {odo.x(), odo.y(), odo.phi()};
+    odometry_v = dt_s > 0 ? delta.x() * ts / dt_s : 0.0;
+    odometry_w = dt_s > 0 ? delta.phi() * rs / dt_s : 0.0;
+    // The first-order lag never quite reaches zero: below 1 mm/s and 0.06 deg/s counts as still.
+    moving = dt_s > 0 && (std::hypot(delta.x(), delta.y()) / dt_s > 1e-3 ||
+                          std::abs(delta.phi()) / dt_s > 1e-3);
+  }
+
+  void step_head(double dt_s) {
+    const double max_step = deg_to_rad(mission->robot.pan_tilt.max_rate_dps) * dt_s;
+    const JointAngles before = q_true;
+    // Within one step of the command the joint lands on it exactly (no rounding creep).
+    auto move = [max_step](double q, double target) {
+      return std::abs(target - q) <= max_step ? target : q + std::copysign(max_step, target - q);
+    };
+    q_true.pan_rad = move(q_true.pan_rad, q_command.pan_rad);
+    q_true.tilt_rad = move(q_true.tilt_rad, q_command.tilt_rad);
+    head_moving_now = q_true.pan_rad != before.pan_rad || q_true.tilt_rad != before.tilt_rad;
+    if (head_moving_now) at_rest_since_s = t_s;
+    const double sigma = deg_to_rad(world.encoder_noise_deg);
+    q_measured.pan_rad = q_true.pan_rad + sigma * gaussian(rng_encoder);
+    q_measured.tilt_rad = q_true.tilt_rad + sigma * gaussian(rng_encoder);
+  }
+
+  void simulate_scan() {
+    const LaserSpec& spec = mission->robot.laser;
+    LaserScan out;
+    out.t_s = t_s;
+    const double fov = deg_to_rad(spec.fov_deg);
+    out.angle_min_rad = -0.5 * fov;
+    out.angle_increment_rad = spec.rays > 1 ? fov / (spec.rays - 1) : 0.0;
+    out.max_range_m = spec.max_range_m;
+    out.T_base_laser = spec.T_base_laser;
+    out.ranges_m.assign(static_cast<std::size_t>(std::max(spec.rays, 0)),
+                        static_cast<float>(spec.max_range_m));
+    out.valid.assign(out.ranges_m.size(), 0);
+    if (grid && spec.rays > 0) {
+      mrpt::obs::CObservation2DRangeScan obs;
+      obs.aperture = static_cast<float>(fov);
+      obs.maxRange = static_cast<float>(spec.max_range_m);
+      obs.rightToLeft = true;
+      obs.sensorPose = to_cpose3d(spec.T_base_laser);
+      const Pose2D p = true_pose();
+      // Noise is added here from the run's own stream: MRPT's would come from its global
+      // generator, which other parts of the run share.
+      grid->laserScanSimulator(obs, mrpt::poses::CPose2D(p.x_m, p.y_m, p.yaw_rad), laser_threshold,
+                               static_cast<size_t>(spec.rays), 0.0f);
+      for (std::size_t i = 0; i < out.ranges_m.size() && i < obs.getScanSize(); ++i) {
+        if (!obs.getScanRangeValidity(i)) continue;
+        const double r = obs.getScanRange(i) + world.laser_range_noise_m * gaussian(rng_laser);
+        if (r <= 0.0 || r >= spec.max_range_m) continue;
+        out.ranges_m[i] = static_cast<float>(r);
+        out.valid[i] = 1;
+      }
+    }
+    scan = std::move(out);
+  }
+
+  void kidnap_if_arrived() {
+    Target* t = active();
+    if (t == nullptr || t->kidnapped || moving) return;
+    const FaultSpec* f = fault(t->spec->id, "kidnap");
+    if (f == nullptr) return;
+    const Pose2D p = true_pose();
+    if (std::hypot(p.x_m - t->standoff.x_m, p.y_m - t->standoff.y_m) > 0.3) return;
+    t->kidnapped = true;
+    const double distance = fault_value(*f, "distance_m", 1.0);
+    const double first = uniform(rng_faults, 0.0, 2.0 * kPi);
+    // Look for a free spot in one of 16 directions, starting at a seeded one.
+    for (int k = 0; k < 16; ++k) {
+      const double a = first + k * kPi / 8.0;
+      const Pose2D q{p.x_m + distance * std::cos(a), p.y_m + distance * std::sin(a),
+                     wrap_angle_rad(p.yaw_rad + uniform(rng_faults, -0.5, 0.5))};
+      if (!collides(q)) {
+        vehicle.setCurrentGTPose(mrpt::math::TPose2D(q.x_m, q.y_m, q.yaw_rad));
+        return;
+      }
+    }
+  }
+
+  Eigen::Isometry3d T_map_base() const { return isometry_from_pose2d(true_pose()); }
+
+  Eigen::Isometry3d T_map_depth() const {
+    Eigen::Isometry3d T_camera_depth = Eigen::Isometry3d::Identity();
+    T_camera_depth.translation() = -mission->robot.camera.depth_to_color_m;
+    return T_map_base() * head_true->T_base_camera(q_true) * T_camera_depth;
+  }
+
+  void log_projector(bool shown) {
+    const Target* t = active();
+    ProjectorEvent e{t_s, shown, moving, head_moving_now, t ? t->spec->id : std::string()};
+    projector_log.push_back(e);
+    if (projector_jsonl) {
+      projector_jsonl << "{\"t\": " << e.t_s << ", \"event\": \"" << (shown ? "show" : "blank")
+                      << "\", \"base_moving\": " << (e.base_moving ? "true" : "false")
+                      << ", \"head_moving\": " << (e.head_moving ? "true" : "false")
+                      << ", \"target\": "
+                      << (e.target.empty() ? std::string("null") : "\"" + e.target + "\"") << "}\n";
+      projector_jsonl.flush();
+    }
+  }
+};
+
+namespace {
+
+std::mutex& registry_mutex() {
+  static std::mutex m;
+  return m;
+}
+std::map<const RunContext*, std::weak_ptr<SimWorld>>& registry() {
+  static std::map<const RunContext*, std::weak_ptr<SimWorld>> r;
+  return r;
+}
+
+}  // namespace
+
+std::shared_ptr<SimWorld> SimWorld::attach(const RunContext& run) {
+  std::lock_guard<std::mutex> lock(registry_mutex());
+  auto& slot = registry()[&run];
+  if (auto world = slot.lock()) return world;
+  auto world = std::make_shared<SimWorld>(run);
+  slot = world;
+  return world;
+}
+
+SimWorld::SimWorld(const RunContext& run) : impl_(std::make_unique<Impl>()) {
+  Impl& w = *impl_;
+  if (run.mission == nullptr) throw std::invalid_argument("simulated world: no mission");
+  w.run = &run;
+  w.mission = run.mission;
+  w.world = run.world ? *run.world : WorldSpec{};
+  w.seed = run.seed;
+  const RobotSpec& robot = run.mission->robot;
+  std::mt19937_64 setup = stream(w.seed, Stream::setup);
+  w.rng_odometry = stream(w.seed, Stream::odometry);
+  w.rng_laser = stream(w.seed, Stream::laser);
+  w.rng_encoder = stream(w.seed, Stream::encoder);
+  w.rng_depth = stream(w.seed, Stream::depth);
+  w.rng_faults = stream(w.seed, Stream::faults);
+
+  // Odometry: a per-run scale error between half and all of the configured fraction.
+  w.odometry_trans_bias = w.world.odometry_trans_noise_frac * uniform(setup, 0.5, 1.0) *
+                          (uniform(setup, 0, 1) < 0.5 ? -1.0 : 1.0);
+  w.odometry_rot_bias = w.world.odometry_rot_noise_frac * uniform(setup, 0.5, 1.0) *
+                        (uniform(setup, 0, 1) < 0.5 ? -1.0 : 1.0);
+
+  // Calibration: the true projector mount is the robot file's moved by exactly the configured
+  // error, in a seeded direction about a seeded axis.
+  MountSpec projector_true = robot.projector.mount;
+  Eigen::Isometry3d calib = Eigen::Isometry3d::Identity();
+  calib.translation() = random_unit(setup) * (w.world.calibration_error_mm * 1e-3);
+  calib.linear() = Eigen::AngleAxisd(deg_to_rad(w.world.calibration_error_deg), random_unit(setup))
+                       .toRotationMatrix();
+  projector_true.T_link_body = projector_true.T_link_body * calib;
+  w.head_true =
+      std::make_unique<HeadKinematics>(robot.pan_tilt, robot.camera.mount, projector_true);
+
+  if (run.map) {
+    w.grid = std::make_shared<mrpt::maps::COccupancyGridMap2D>(*run.map);
+  }
+
+  // Targets: true poses and true surfaces.
+  SceneBuilder builder;
+  builder.set_floor(0.0, kFloorId);
+  if (w.grid) builder.add_occupancy_walls(*w.grid, 2.0, kWallId);
+  std::map<std::string, TriangleMesh> meshes;  // by model file: targets may share one
+  for (std::size_t i = 0; i < run.mission->targets.size(); ++i) {
+    const TargetSpec& spec = run.mission->targets[i];
+    Impl::Target t;
+    t.spec = &spec;
+    t.object_id = kFirstTargetId + static_cast<int>(i);
+    t.standoff = standoff_pose(spec);
+    const auto listed = w.world.T_map_model_true.find(spec.id);
+    // Offsets are drawn for every target, listed or not, so listing one does not move another.
+    const double r = w.world.target_offset_max_m * std::sqrt(uniform(setup, 0, 1));
+    const double a = uniform(setup, 0, 2 * kPi);
+    const double yaw = deg_to_rad(w.world.target_offset_max_deg) * uniform(setup, -1, 1);
+    if (listed != w.world.T_map_model_true.end()) {
+      t.T_map_model = listed->second;
+    } else {
+      Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
+      shift.translation() = Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0.0);
+      t.T_map_model = shift * spec.T_map_model * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ());
+    }
+    const std::string key = spec.model.string();
+    if (!meshes.count(key)) {
+      try {
+        meshes[key] = load_mesh(spec.model);
+      } catch (const std::exception& e) {
+        throw std::runtime_error(std::string("simulated world: target '") + spec.id +
+                                 "': the simulator renders meshes: " + e.what());
+      }
+    }
+    t.mesh_true = w.world.model_error
+                      ? perturbed_mesh(meshes[key], w.world.model_error_noise_mm * 1e-3, setup)
+                      : meshes[key];
+    SceneBuilder alone;
+    alone.add_mesh(t.mesh_true, t.T_map_model, t.object_id);
+    t.alone = alone.build();
+    t.missing = w.fault(spec.id, "target_missing") != nullptr;
+    if (!t.missing) builder.add_mesh(t.mesh_true, t.T_map_model, t.object_id);
+
+    if (const FaultSpec* f = w.fault(spec.id, "occluder")) {
+      // A board hanging above the laser plane between the target and its stand-off pose.
+      const Eigen::Vector3d c = t.T_map_model.translation();
+      Eigen::Vector2d dir(t.standoff.x_m - c.x(), t.standoff.y_m - c.y());
+      dir = dir.norm() > 1e-9 ? dir.normalized() : Eigen::Vector2d::UnitX();
+      const double d = fault_value(*f, "distance_m", 0.5);
+      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+      T.linear() = Eigen::AngleAxisd(std::atan2(dir.y(), dir.x()), Eigen::Vector3d::UnitZ())
+                       .toRotationMatrix();
+      T.translation() = Eigen::Vector3d(c.x() + d * dir.x(), c.y() + d * dir.y(), c.z());
+      builder.add_box(T,
+                      Eigen::Vector3d(0.01, 0.5 * fault_value(*f, "width_m", 0.4),
+                                      0.5 * fault_value(*f, "height_m", 0.4)),
+                      kObstacleId);
+    }
+    if (const FaultSpec* f = w.fault(spec.id, "blocked_path")) {
+      const double half = 0.5 * fault_value(*f, "size_m", 0.6);
+      Impl::Box2 box{{t.standoff.x_m - half, t.standoff.y_m - half},
+                     {t.standoff.x_m + half, t.standoff.y_m + half}};
+      w.obstacles.push_back(box);
+      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+      T.translation() = Eigen::Vector3d(t.standoff.x_m, t.standoff.y_m, 0.5);
+      builder.add_box(T, Eigen::Vector3d(half, half, 0.5), kObstacleId);
+      if (w.grid) {
+        // Painted into the laser's grid too.
+        for (double y = box.lo.y(); y <= box.hi.y(); y += 0.5 * w.grid->getResolution()) {
+          for (double x = box.lo.x(); x <= box.hi.x(); x += 0.5 * w.grid->getResolution()) {
+            const int i = w.grid->x2idx(x), j = w.grid->y2idx(y);
+            if (i >= 0 && j >= 0 && i < static_cast<int>(w.grid->getSizeX()) &&
+                j < static_cast<int>(w.grid->getSizeY())) {
+              w.grid->setCell(i, j, 0.0f);
+            }
+          }
+        }
+      }
+    }
+    w.targets.push_back(std::move(t));
+  }
+  w.scene = builder.build();
+  w.depth_renderer = std::make_unique<DepthRenderer>(robot.camera.intrinsics);
+  w.kinect.axial_noise = w.world.depth_noise;
+  w.kinect.min_depth_m = robot.camera.min_range_m;
+  w.kinect.max_depth_m = robot.camera.max_range_m;
+
+  // Base: MRPT's simulator for the true motion; it starts where the mission says.
+  w.vehicle.setOdometryErrors(false);
+  w.vehicle.setDelayModelParams(0.1, 0.0);
+  w.vehicle.setCurrentGTPose(mrpt::math::TPose2D(run.mission->start.x_m, run.mission->start.y_m,
+                                                 run.mission->start.yaw_rad));
+  w.odometry_pose = run.mission->start;
+
+  const PanTiltSpec& pt = robot.pan_tilt;
+  w.q_true = {deg_to_rad(pt.stow_pan_deg), deg_to_rad(pt.stow_tilt_deg)};
+  w.q_command = w.q_true;
+  w.q_measured = w.q_true;
+}
+
+SimWorld::~SimWorld() = default;
+
+void SimWorld::advance(double t_s) {
+  Impl& w = *impl_;
+  if (w.started && t_s <= w.t_s) return;
+  const double dt_total = w.started ? t_s - w.t_s : 0.0;
+  w.started = true;
+  // Sub-steps bound how far the base moves between bumper checks (5 cm at 0.5 m/s).
+  const int steps = std::max(1, static_cast<int>(std::ceil(dt_total / 0.1)));
+  const double dt = dt_total / steps;
+  const bool was_lit = !is_blank();
+  for (int s = 0; s < steps; ++s) {
+    w.t_s += dt;
+    if (dt > 0.0) {
+      w.step_base(dt);
+      w.step_head(dt);
+    }
+    if (was_lit && (w.moving || w.head_moving_now)) w.lit_moving_s += dt;
+  }
+  w.t_s = t_s;
+  if (dt_total <= 0.0) w.step_head(0.0);
+  w.kidnap_if_arrived();
+
+  const LaserSpec& laser = w.mission->robot.laser;
+  if (t_s + 1e-9 >= w.next_scan_s) {
+    w.simulate_scan();
+    w.next_scan_s = (laser.rate_hz > 0 ? std::floor(t_s * laser.rate_hz + 1e-6) + 1.0 : 1.0) /
+                    std::max(laser.rate_hz, 1e-9);
+  }
+  const CameraSpec& camera = w.mission->robot.camera;
+  if (t_s + 1e-9 >= w.next_frame_s) {
+    w.frame_due_s = t_s;
+    w.next_frame_s =
+        (std::floor(t_s * camera.rate_hz + 1e-6) + 1.0) / std::max(camera.rate_hz, 1e-9);
+  }
+}
+
+double SimWorld::time_s() const {
+  return impl_->t_s;
+}
+
+void SimWorld::set_velocity_time_constant(double tau_s) {
+  impl_->vehicle.setDelayModelParams(std::max(tau_s, 0.0), 0.0);
+}
+
+void SimWorld::command_velocity(double v_mps, double w_radps) {
+  const BaseSpec& base = impl_->mission->robot.base;
+  const double w_max = deg_to_rad(base.max_turn_rate_dps);
+  impl_->vehicle.movementCommand(std::clamp(v_mps, -base.max_speed_mps, base.max_speed_mps),
+                                 std::clamp(w_radps, -w_max, w_max));
+}
+
+Odometry SimWorld::odometry() const {
+  return {impl_->t_s, impl_->odometry_pose, impl_->odometry_v, impl_->odometry_w};
+}
+
+bool SimWorld::base_blocked() const {
+  return impl_->blocked;
+}
+bool SimWorld::base_moving() const {
+  return impl_->moving;
+}
+
+void SimWorld::set_laser_occupancy_threshold(double threshold) {
+  impl_->laser_threshold = static_cast<float>(threshold);
+}
+
+void SimWorld::set_max_incidence_deg(double deg) {
+  impl_->kinect.max_incidence_deg = deg;
+}
+
+void SimWorld::set_projector_log_file(const std::filesystem::path& file) {
+  std::error_code ec;
+  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), ec);
+  impl_->projector_jsonl = std::ofstream(file, std::ios::trunc);
+  if (!impl_->projector_jsonl) throw std::runtime_error("cannot write " + file.string());
+}
+
+std::optional<LaserScan> SimWorld::take_scan() {
+  auto out = std::move(impl_->scan);
+  impl_->scan.reset();
+  return out;
+}
+
+void SimWorld::set_head_settle_time(double settle_s) {
+  impl_->settle_s = std::max(settle_s, 0.0);
+}
+
+void SimWorld::command_head(const JointAngles& angles) {
+  const PanTiltSpec& pt = impl_->mission->robot.pan_tilt;
+  impl_->q_command.pan_rad =
+      std::clamp(angles.pan_rad, deg_to_rad(pt.pan_min_deg), deg_to_rad(pt.pan_max_deg));
+  impl_->q_command.tilt_rad =
+      std::clamp(angles.tilt_rad, deg_to_rad(pt.tilt_min_deg), deg_to_rad(pt.tilt_max_deg));
+}
+
+JointAngles SimWorld::measured_head() const {
+  return impl_->q_measured;
+}
+
+bool SimWorld::head_reached() const {
+  const Impl& w = *impl_;
+  const double tol = deg_to_rad(w.mission->robot.pan_tilt.tolerance_deg);
+  return std::abs(w.q_measured.pan_rad - w.q_command.pan_rad) <= tol &&
+         std::abs(w.q_measured.tilt_rad - w.q_command.tilt_rad) <= tol && !w.head_moving_now &&
+         w.t_s - w.at_rest_since_s >= w.settle_s - 1e-9;
+}
+
+bool SimWorld::head_moving() const {
+  return impl_->head_moving_now;
+}
+JointAngles SimWorld::true_head() const {
+  return impl_->q_true;
+}
+
+std::optional<DepthFrame> SimWorld::grab() {
+  Impl& w = *impl_;
+  Impl::Target* here = w.active();
+  if (here != nullptr) {
+    if (const FaultSpec* f = w.fault(here->spec->id, "camera_disconnect")) {
+      if (here->frames_here >= static_cast<int>(fault_value(*f, "after_frames", 0.0))) {
+        throw DriverError("simulated depth camera: device disconnected");
+      }
+    }
+  }
+  if (!w.frame_due_s) return std::nullopt;
+  const double t_frame = *w.frame_due_s;
+  w.frame_due_s.reset();
+  const PinholeModel& k = w.mission->robot.camera.intrinsics;
+  bool dropped = false;
+  if (here != nullptr) {
+    ++here->frames_here;
+    if (const FaultSpec* f = w.fault(here->spec->id, "frame_dropout")) {
+      dropped = uniform(w.rng_faults, 0.0, 1.0) < fault_value(*f, "fraction", 0.5);
+    }
+  }
+  DepthFrame frame;
+  if (dropped) {
+    frame.intrinsics = k;
+    frame.width = k.width;
+    frame.height = k.height;
+    frame.depth_mm.assign(static_cast<std::size_t>(k.width) * k.height, 0);
+  } else {
+    w.depth_renderer->render(w.scene, w.T_map_depth(), w.ideal, w.kinect.max_depth_m + 0.2);
+    frame = apply_kinect_noise(w.ideal, k, w.kinect, w.rng_depth);
+  }
+  frame.t_s = t_frame;
+  frame.sequence = ++w.frame_sequence;
+  return frame;
+}
+
+void SimWorld::show(const cv::Mat& frame_bgr) {
+  Impl& w = *impl_;
+  const PinholeModel& k = w.mission->robot.projector.intrinsics;
+  if (frame_bgr.cols != k.width || frame_bgr.rows != k.height) {
+    throw std::invalid_argument("simulated projector: frame is " + std::to_string(frame_bgr.cols) +
+                                "x" + std::to_string(frame_bgr.rows) + ", the projector " +
+                                std::to_string(k.width) + "x" + std::to_string(k.height));
+  }
+  if (Impl::Target* here = w.active()) {
+    if (const FaultSpec* f = w.fault(here->spec->id, "projector_failure")) {
+      if (here->shows_here >= static_cast<int>(fault_value(*f, "after_shows", 0.0))) {
+        throw DriverError("simulated projector: lamp failure");
+      }
+    }
+    ++here->shows_here;
+  }
+  w.lit = true;
+  w.log_projector(true);
+}
+
+void SimWorld::blank() {
+  impl_->lit = false;
+  impl_->log_projector(false);
+}
+
+bool SimWorld::is_blank() const {
+  return !impl_->lit;
+}
+const std::vector<ProjectorEvent>& SimWorld::projector_log() const {
+  return impl_->projector_log;
+}
+double SimWorld::lit_while_moving_s() const {
+  return impl_->lit_moving_s;
+}
+
+std::string SimWorld::active_target() const {
+  const Impl::Target* t = impl_->active();
+  return t ? t->spec->id : std::string();
+}
+
+void SimWorld::set_true_base_pose(const Pose2D& pose) {
+  impl_->vehicle.setCurrentGTPose(mrpt::math::TPose2D(pose.x_m, pose.y_m, pose.yaw_rad));
+}
+
+Eigen::Isometry3d SimWorld::true_T_map_base() const {
+  return impl_->T_map_base();
+}
+
+Eigen::Isometry3d SimWorld::true_T_map_camera() const {
+  return impl_->T_map_base() * impl_->head_true->T_base_camera(impl_->q_true);
+}
+
+Eigen::Isometry3d SimWorld::true_T_map_projector() const {
+  return impl_->T_map_base() * impl_->head_true->T_base_projector(impl_->q_true);
+}
+
+Eigen::Isometry3d SimWorld::true_T_map_model(const std::string& target_id) const {
+  const Impl::Target* t = impl_->target(target_id);
+  if (t == nullptr) throw std::out_of_range("simulated world: no target '" + target_id + "'");
+  return t->T_map_model;
+}
+
+std::optional<ProjectionTruth> SimWorld::evaluate_projection(
+    const std::string& target_id, const std::array<Eigen::Vector2d, 4>& projector_px) const {
+  const Impl::Target* t = impl_->target(target_id);
+  if (t == nullptr) return std::nullopt;
+  const TrueProjection truth =
+      true_projection(*t->spec, t->T_map_model, t->alone, true_T_map_projector(),
+                      impl_->mission->robot.projector.intrinsics, projector_px);
+  ProjectionTruth out;
+  for (int i = 0; i < 4; ++i) {
+    out.error_mm[i] = 1000.0 * (truth.landed_map[i] - truth.model_points_map[i]).norm();
+    out.error_px[i] = truth.error_px[i];
+  }
+  return out;
+}
+
+void SimWorld::write_projection_views(const std::string& target_id,
+                                      const std::array<Eigen::Vector2d, 4>& pixels_before_align,
+                                      const std::array<Eigen::Vector2d, 4>& pixels_after_align,
+                                      const std::filesystem::path& dir) const {
+  const Impl::Target* t = impl_->target(target_id);
+  if (t == nullptr) throw std::out_of_range("simulated world: no target '" + target_id + "'");
+  const Eigen::Isometry3d T_map_projector = true_T_map_projector();
+  const PinholeModel& k = impl_->mission->robot.projector.intrinsics;
+  std::filesystem::create_directories(dir);
+  write_projection_view(
+      t->alone, t->T_map_model,
+      true_projection(*t->spec, t->T_map_model, t->alone, T_map_projector, k, pixels_before_align),
+      "before alignment", dir / "before.png");
+  write_projection_view(
+      t->alone, t->T_map_model,
+      true_projection(*t->spec, t->T_map_model, t->alone, T_map_projector, k, pixels_after_align),
+      "after alignment", dir / "after.png");
+}
+
+}  // namespace projtour::sim

@@ -1,0 +1,290 @@
+// The capture and align behaviours and the OpenNI2 driver, loaded as plugins the way the
+// executor loads them, over drivers made for the test and frames from the simulator's renderer.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "projtour/blackboard_keys.hpp"
+#include "projtour/kinematics.hpp"
+#include "projtour/plugin_loader.hpp"
+#include "projtour/registration.hpp"
+#include "rendered_scenes.hpp"
+
+namespace projtour {
+namespace {
+
+namespace fs = std::filesystem;
+
+class FixedPanTilt : public PanTiltDriver {
+ public:
+  JointAngles q;
+  void command(const JointAngles& angles) override { q = angles; }
+  JointAngles measured() const override { return q; }
+  bool reached() const override { return true; }
+  void safe_stop() override {}
+};
+
+class QueuedCamera : public DepthCameraDriver {
+ public:
+  std::deque<DepthFrame> frames;
+  bool disconnected = false;
+  std::optional<DepthFrame> grab() override {
+    if (disconnected) throw DriverError("USB device gone");
+    if (frames.empty()) return std::nullopt;
+    DepthFrame f = std::move(frames.front());
+    frames.pop_front();
+    return f;
+  }
+  void safe_stop() override {}
+};
+
+class SilentLogger : public Logger {
+ public:
+  void log(LogLevel, const std::string&) override {}
+};
+
+const char* const kBunny = PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply";
+
+// One registry for the whole suite: plugins stay loaded, as in a run.
+PluginRegistry& registry() {
+  static PluginRegistry* r = [] {
+    auto* reg = new PluginRegistry;
+    for (const char* name : {"capture", "align", "openni2"}) {
+      reg->load_library(fs::path(PROJTOUR_PLUGIN_BUILD_DIR) / ("libprojtour_" + std::string(name) + ".so"));
+    }
+    return reg;
+  }();
+  return *r;
+}
+
+Params params_of(const std::string& kind, const std::map<std::string, ParamValue>& values = {}) {
+  Params p = Params::defaults(registry().require(kind).params);
+  for (const auto& [name, value] : values) p.set(name, value);
+  return p;
+}
+
+// A robot at the map origin with its camera 1 m up on the pan link, looking along +x, and a
+// target 1 m ahead; the target truly sits a little off its nominal pose.
+class PluginTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    mission_.robot.pan_tilt.T_base_pan0.translation() = Eigen::Vector3d(0.1, 0.0, 1.0);
+    mission_.robot.camera.mount.link = Link::tilt;
+    mission_.robot.camera.depth_to_color_m = Eigen::Vector3d(0.025, 0.0, 0.0);
+    TargetSpec target;
+    target.id = "rabbit";
+    target.model = kBunny;
+    target.T_map_model = isometry_from_xyz_rpy(1.1, 0.0, 0.85, 0.0, 0.0, kPi);
+    mission_.targets.push_back(target);
+    pan_tilt_->q = {0.0, deg_to_rad(8.0)};
+
+    run_.mission = &mission_;
+    run_.drivers = &drivers_;
+    run_.blackboard = &blackboard_;
+    run_.clock = &clock_;
+    run_.log = &logger_;
+    drivers_.pan_tilt = pan_tilt_;
+    drivers_.depth_camera = camera_;
+    ctx_.run = &run_;
+    ctx_.target = &mission_.targets[0];
+    ctx_.target_dir = fs::temp_directory_path() / ("projtour_align_test_" + std::to_string(::getpid()));
+    fs::create_directories(ctx_.target_dir);
+    PoseEstimate2D loc;
+    blackboard_.set(keys::kLocalization, loc);
+  }
+  void TearDown() override { fs::remove_all(ctx_.target_dir); }
+
+  Eigen::Isometry3d T_camera_model_true() const {
+    const Eigen::Isometry3d T_map_model_true =
+        mission_.targets[0].T_map_model * isometry_from_xyz_rpy(0.03, -0.02, 0.01, 0.02, -0.03, 0.05);
+    const Eigen::Isometry3d T_map_camera = HeadKinematics(mission_.robot).T_base_camera(pan_tilt_->q);
+    return T_map_camera.inverse() * T_map_model_true;
+  }
+
+  // A rendered frame of the true target, with the depth-colour offset undone (the renderer
+  // works in the depth optical frame).
+  DepthFrame rendered_frame(unsigned seed) const {
+    Eigen::Isometry3d T_depth_model = T_camera_model_true();
+    T_depth_model.translation() -= mission_.robot.camera.depth_to_color_m;
+    const TriangleMesh mesh = load_mesh(kBunny);
+    return test::render_on_floor(mesh, T_depth_model, true, seed);
+  }
+
+  // start, tick until an outcome (advancing the clock 1/30 s per tick), stop.
+  Outcome run_behaviour(Behaviour& b, int max_ticks = 1000) {
+    Params p;
+    ctx_.params = &p;
+    b.start(ctx_);
+    for (int i = 0; i < max_ticks; ++i) {
+      if (auto o = b.tick(ctx_)) {
+        b.stop(ctx_);
+        return *o;
+      }
+      clock_.advance(1.0 / 30.0);
+    }
+    b.stop(ctx_);
+    return {"(still running)", ""};
+  }
+
+  MissionSpec mission_;
+  DriverSet drivers_;
+  std::shared_ptr<FixedPanTilt> pan_tilt_ = std::make_shared<FixedPanTilt>();
+  std::shared_ptr<QueuedCamera> camera_ = std::make_shared<QueuedCamera>();
+  Blackboard blackboard_;
+  SteppedClock clock_;
+  SilentLogger logger_;
+  RunContext run_;
+  Context ctx_;
+};
+
+TEST_F(PluginTest, CaptureAveragesFramesOntoTheBlackboard) {
+  DepthFrame a = rendered_frame(1), b = rendered_frame(2), dropped = a;
+  std::fill(dropped.depth_mm.begin(), dropped.depth_mm.end(), 0);
+  b.t_s = 0.5;
+  camera_->frames = {a, dropped, b};
+  auto capture = registry().create_behaviour("capture", params_of("capture", {{"average_frames", 2LL}}), run_);
+  const Outcome o = run_behaviour(*capture);
+  ASSERT_EQ(o.name, "succeeded") << o.message;
+  const auto frame = blackboard_.require<std::shared_ptr<const DepthFrame>>(keys::kDepthFrame);
+  ASSERT_TRUE(frame);
+  EXPECT_DOUBLE_EQ(frame->t_s, 0.5);
+  EXPECT_EQ(frame->depth_mm, average_depth_frames({a, b}).depth_mm);
+}
+
+TEST_F(PluginTest, CaptureWithoutFramesEndsNoFrameAndADisconnectFails) {
+  auto capture = registry().create_behaviour("capture", params_of("capture", {{"max_wait_s", 0.5}}), run_);
+  const Outcome none = run_behaviour(*capture);
+  EXPECT_EQ(none.name, "no_frame");
+  EXPECT_GE(clock_.now_s(), 0.5);
+  camera_->disconnected = true;
+  const Outcome gone = run_behaviour(*capture);
+  EXPECT_EQ(gone.name, "failed");
+  EXPECT_NE(gone.message.find("USB device gone"), std::string::npos) << gone.message;
+  EXPECT_NE(registry().validate_params("capture", params_of("capture", {{"average_frames", 0LL}})), "");
+}
+
+TEST_F(PluginTest, AlignFindsTheTruePoseAndDrawsIt) {
+  blackboard_.set(keys::kDepthFrame, std::make_shared<const DepthFrame>(rendered_frame(3)));
+  auto align = registry().create_behaviour("align", params_of("align"), run_);
+  const Outcome o = run_behaviour(*align);
+  ASSERT_EQ(o.name, "succeeded") << o.message;
+  const auto T = blackboard_.require<Eigen::Isometry3d>(keys::kTCameraModel);
+  const auto guess = blackboard_.require<Eigen::Isometry3d>(keys::kTCameraModelGuess);
+  const Eigen::Isometry3d truth = T_camera_model_true();
+  // The guess is the nominal pose; the result is the true one.
+  EXPECT_GT(translation_distance_m(guess, truth), 0.02);
+  EXPECT_LT(translation_distance_m(T, truth) * 1000.0, 2.0);
+  EXPECT_LT(rad_to_deg(rotation_angle_rad(T, truth)), 0.2);
+  const auto q = blackboard_.require<keys::AlignQuality>(keys::kAlignQuality);
+  EXPECT_EQ(q.method, "projective_icp");
+  EXPECT_GT(q.inlier_fraction, 0.8);
+  EXPECT_GT(q.iterations, 0);
+  EXPECT_GT(q.time_ms, 0.0);
+  EXPECT_GT(fs::file_size(ctx_.target_dir / "alignment.png"), 1000u);
+}
+
+TEST_F(PluginTest, AlignWithPclIcpAndGicp) {
+  blackboard_.set(keys::kDepthFrame, std::make_shared<const DepthFrame>(rendered_frame(4)));
+  for (const char* method : {"pcl_icp", "pcl_gicp"}) {
+    auto align = registry().create_behaviour("align", params_of("align", {{"method", std::string(method)}}), run_);
+    const Outcome o = run_behaviour(*align);
+    ASSERT_EQ(o.name, "succeeded") << method << ": " << o.message;
+    const auto T = blackboard_.require<Eigen::Isometry3d>(keys::kTCameraModel);
+    EXPECT_LT(translation_distance_m(T, T_camera_model_true()) * 1000.0, 10.0) << method;
+    EXPECT_EQ(blackboard_.require<keys::AlignQuality>(keys::kAlignQuality).method, method);
+  }
+  EXPECT_NE(registry().validate_params("align", params_of("align", {{"method", std::string("ndt")}})), "");
+}
+
+TEST_F(PluginTest, AlignWithAnEmptyCropIsNoTarget) {
+  DepthFrame empty = rendered_frame(5);
+  std::fill(empty.depth_mm.begin(), empty.depth_mm.end(), 0);
+  blackboard_.set(keys::kDepthFrame, std::make_shared<const DepthFrame>(empty));
+  auto align = registry().create_behaviour("align", params_of("align"), run_);
+  const Outcome o = run_behaviour(*align);
+  EXPECT_EQ(o.name, "no_target") << o.message;
+  EXPECT_FALSE(blackboard_.has(keys::kTCameraModel));
+  EXPECT_TRUE(blackboard_.has(keys::kTCameraModelGuess));
+}
+
+TEST_F(PluginTest, AlignOfAWrongModelIsPoorFit) {
+  // A box of the bunny's size stands in for the model: it cannot match the bunny's surface.
+  const fs::path box = ctx_.target_dir / "box.off";
+  {
+    std::ofstream off(box);
+    off << "OFF\n8 12 0\n";
+    for (int i = 0; i < 8; ++i) {
+      off << (i & 1 ? 0.12 : -0.12) << ' ' << (i & 2 ? 0.1 : -0.1) << ' ' << (i & 4 ? 0.12 : -0.12) << '\n';
+    }
+    off << "3 0 2 1\n3 1 2 3\n3 4 5 6\n3 5 7 6\n3 0 1 4\n3 1 5 4\n"
+           "3 2 6 3\n3 3 6 7\n3 0 4 2\n3 2 4 6\n3 1 3 5\n3 3 7 5\n";
+  }
+  mission_.targets[0].model = box;
+  blackboard_.set(keys::kDepthFrame, std::make_shared<const DepthFrame>(rendered_frame(6)));
+  auto align = registry().create_behaviour("align", params_of("align"), run_);
+  const Outcome o = run_behaviour(*align);
+  EXPECT_EQ(o.name, "poor_fit") << o.message;
+  EXPECT_FALSE(blackboard_.has(keys::kTCameraModel));
+  EXPECT_TRUE(blackboard_.has(keys::kAlignQuality));
+}
+
+TEST_F(PluginTest, AlignWithoutAFrameFails) {
+  auto align = registry().create_behaviour("align", params_of("align"), run_);
+  EXPECT_EQ(run_behaviour(*align).name, "failed");
+}
+
+// The real OpenNI2 path, on OpenNI2's Dummy device (320x240 depth, no hardware).
+TEST(OpenNi2, DummyDeviceStreamsFramesWithIntrinsicsAndIncreasingTimestamps) {
+  RunContext run;
+  auto driver = registry().create_driver("openni2", params_of("openni2", {{"uri", std::string("Dummy")}}), run);
+  auto* camera = dynamic_cast<DepthCameraDriver*>(driver.get());
+  ASSERT_NE(camera, nullptr);
+  std::vector<DepthFrame> frames;
+  double t_s = 10.0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (frames.size() < 3 && std::chrono::steady_clock::now() < deadline) {
+    camera->update(t_s += 0.05);
+    if (auto f = camera->grab()) frames.push_back(std::move(*f));
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_EQ(frames.size(), 3u);
+  const double fx = 160.0 / std::tan(deg_to_rad(58.5) / 2.0);
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const DepthFrame& f = frames[i];
+    EXPECT_EQ(f.width, 320);
+    EXPECT_EQ(f.height, 240);
+    EXPECT_EQ(f.depth_mm.size(), 320u * 240u);
+    EXPECT_EQ(f.intrinsics.width, 320);
+    EXPECT_NEAR(f.intrinsics.fx, fx, 1e-9);
+    EXPECT_NEAR(f.intrinsics.cx, 159.5, 1e-9);
+    EXPECT_NEAR(f.intrinsics.cy, 119.5, 1e-9);
+    EXPECT_GT(f.valid_count(), 0u);
+    EXPECT_GE(f.t_s, 10.0);
+    if (i > 0) {
+      EXPECT_GT(f.t_s, frames[i - 1].t_s);
+      EXPECT_GT(f.sequence, frames[i - 1].sequence);
+    }
+  }
+  // The organized cloud of a Dummy frame: its readings become points at their depth.
+  const OrganizedCloud cloud = organized_cloud(frames[0]);
+  EXPECT_EQ(cloud.valid_count(), frames[0].valid_count());
+}
+
+TEST(OpenNi2, NonexistentUriIsAClearError) {
+  RunContext run;
+  try {
+    registry().create_driver("openni2", params_of("openni2", {{"uri", std::string("/nonexistent/tour.oni")}}), run);
+    FAIL() << "opened a nonexistent device";
+  } catch (const PluginError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("cannot open"), std::string::npos) << what;
+    EXPECT_NE(what.find("/nonexistent/tour.oni"), std::string::npos) << what;
+  }
+}
+
+}  // namespace
+}  // namespace projtour

@@ -1,0 +1,74 @@
+#pragma once
+// A small dry-run world for the sim tests: the UD robot, a walled room, one flat sign (exact
+// geometry, so the referee's figures are predictable) and optionally the bunny.
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include "projtour/context.hpp"
+#include "projtour/mission_loader.hpp"
+#include "projtour_sim/sim_drivers.hpp"
+#include "sim_test_scenes.hpp"
+
+namespace projtour::sim::testing {
+
+// A board 2 cm deep, 40 cm wide, 30 cm high, centred on its origin, front face at x = +1 cm.
+inline std::filesystem::path sign_off() {
+  const auto path = std::filesystem::temp_directory_path() / "projtour_test_sim_sign.off";
+  std::ofstream out(path);
+  out << "OFF\n8 6 0\n";
+  for (int i = 0; i < 8; ++i) {
+    out << ((i & 1) ? 0.01 : -0.01) << " " << ((i & 2) ? 0.2 : -0.2) << " "
+        << ((i & 4) ? 0.15 : -0.15) << "\n";
+  }
+  out << "4 0 2 3 1\n4 4 5 7 6\n4 0 1 5 4\n4 2 6 7 3\n4 1 3 7 5\n4 0 4 6 2\n";
+  return path;
+}
+
+struct Rig {
+  MissionSpec mission;
+  WorldSpec world;
+  RunContext run;
+  std::shared_ptr<SimWorld> sim;
+
+  // The sign at (3, 0, 0.9) facing -x; the robot starts at `start` in a room [-1.5, 5] x
+  // [-2.5, 2.5].
+  explicit Rig(std::uint64_t seed = 1, Pose2D start = {1.5, 0.0, 0.0}, bool with_map = true) {
+    Diagnostics diag;
+    auto robot =
+        load_robot(std::filesystem::path(PROJTOUR_SOURCE_DIR) / "examples/robot/ud.yaml", diag);
+    if (!robot) throw std::runtime_error("cannot load ud.yaml");
+    mission.name = "sim-test";
+    mission.robot = *robot;
+    mission.start = start;
+    TargetSpec sign;
+    sign.id = "sign";
+    sign.model = sign_off();
+    sign.T_map_model = isometry_from_xyz_rpy(3.0, 0.0, 0.9, 0, 0, kPi);
+    // The front face's corners, inset: top-left, top-right, bottom-right, bottom-left as seen
+    // from the front (+x), where +y is to the viewer's right... of the model's left.
+    sign.model_points = {Eigen::Vector3d(0.01, 0.1, 0.1), Eigen::Vector3d(0.01, -0.1, 0.1),
+                         Eigen::Vector3d(0.01, -0.1, -0.05), Eigen::Vector3d(0.01, 0.1, -0.05)};
+    sign.standoff_m = 1.0;
+    mission.targets.push_back(sign);
+    world.model_error = false;
+    world.calibration_error_mm = 0.0;
+    world.calibration_error_deg = 0.0;
+    run.mission = &mission;
+    run.world = &world;
+    run.seed = seed;
+    if (with_map) run.map = room_grid(-1.5f, 5.0f, -2.5f, 2.5f);
+  }
+
+  SimWorld& make() {
+    sim = std::make_shared<SimWorld>(run);
+    return *sim;
+  }
+
+  // Steps the world at 10 Hz up to t_s.
+  void run_until(double t_s, double dt_s = 0.1) {
+    for (double t = sim->time_s() + dt_s; t <= t_s + 1e-9; t += dt_s) sim->advance(t);
+  }
+};
+
+}  // namespace projtour::sim::testing

@@ -1,0 +1,371 @@
+// The simulated world: base, laser, head, camera, projector, the referee and the faults.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "projtour/kinematics.hpp"
+#include "projtour/plugin_loader.hpp"
+#include "sim_world_rig.hpp"
+
+namespace projtour::sim {
+namespace {
+
+using testing::Rig;
+
+TEST(SimBase, OdometryDriftWithinConfiguredRange) {
+  for (std::uint64_t seed : {1u, 2u, 3u}) {
+    Rig rig(seed, {-1.0, 0.0, 0.0});
+    rig.world.odometry_trans_noise_frac = 0.03;
+    SimWorld& w = rig.make();
+    w.advance(0.0);
+    w.command_velocity(0.5, 0.0);
+    rig.run_until(8.0);
+    const Pose2D truth = pose2d_from_isometry(w.true_T_map_base());
+    const Pose2D odo = w.odometry().pose;
+    const double travelled = truth.x_m + 1.0;
+    EXPECT_GT(travelled, 3.5) << seed;
+    EXPECT_FALSE(w.base_blocked());
+    const double drift = std::hypot(odo.x_m - truth.x_m, odo.y_m - truth.y_m) / travelled;
+    EXPECT_GT(drift, 0.3 * 0.03) << seed;
+    EXPECT_LT(drift, 1.5 * 0.03) << seed;
+    EXPECT_NEAR(w.odometry().v_mps, 0.5, 0.05);
+  }
+}
+
+TEST(SimBase, VelocityLimitsAndBumper) {
+  Rig rig(1, {3.5, 0.0, 0.0});
+  SimWorld& w = rig.make();
+  w.advance(0.0);
+  w.command_velocity(5.0, 0.0);  // clamped to 0.5 m/s
+  rig.run_until(1.0);
+  EXPECT_LT(pose2d_from_isometry(w.true_T_map_base()).x_m, 3.5 + 0.5 + 1e-6);
+  rig.run_until(6.0);
+  // The wall's inner face is at x = 5; the bumper stops the centre 15 cm before it.
+  const Pose2D truth = pose2d_from_isometry(w.true_T_map_base());
+  EXPECT_TRUE(w.base_blocked());
+  EXPECT_LT(truth.x_m, 5.0 - 0.1);
+  EXPECT_GT(truth.x_m, 4.6);
+  // Backing away works.
+  w.command_velocity(-0.3, 0.0);
+  rig.run_until(7.0);
+  EXPECT_FALSE(w.base_blocked());
+  EXPECT_LT(pose2d_from_isometry(w.true_T_map_base()).x_m, truth.x_m - 0.1);
+}
+
+TEST(SimLaser, RangesAgainstAKnownWall) {
+  Rig rig(1, {0.0, 0.0, 0.0});
+  rig.mission.targets.clear();
+  SimWorld& w = rig.make();
+  w.advance(0.0);
+  const auto scan = w.take_scan();
+  ASSERT_TRUE(scan);
+  EXPECT_FALSE(w.take_scan());  // taken
+  ASSERT_EQ(scan->ranges_m.size(), 541u);
+  EXPECT_NEAR(scan->angle_min_rad, -deg_to_rad(135.0), 1e-9);
+  EXPECT_NEAR(scan->angle_increment_rad, deg_to_rad(0.5), 1e-9);
+  // Straight ahead from the laser 0.2 m in front of the centre: the wall at x = 5.
+  ASSERT_TRUE(scan->valid[270]);
+  EXPECT_NEAR(scan->ranges_m[270], 4.8, 0.06);
+  // Left (+90 deg): wall at y = 2.5, laser on the centre line.
+  ASSERT_TRUE(scan->valid[450]);
+  EXPECT_NEAR(scan->ranges_m[450], 2.5, 0.06);
+  // The next scan comes at 10 Hz.
+  w.advance(0.05);
+  EXPECT_FALSE(w.take_scan());
+  w.advance(0.1);
+  EXPECT_TRUE(w.take_scan());
+}
+
+TEST(SimPanTilt, RateLimitedAndSettles) {
+  Rig rig;
+  SimWorld& w = rig.make();
+  w.advance(0.0);
+  EXPECT_TRUE(w.head_reached());
+  w.command_head({deg_to_rad(60.0), deg_to_rad(-10.0)});
+  rig.run_until(0.5, 0.05);
+  EXPECT_NEAR(rad_to_deg(w.true_head().pan_rad), 30.0, 0.01);
+  EXPECT_NEAR(rad_to_deg(w.true_head().tilt_rad), -10.0, 1e-9);
+  EXPECT_FALSE(w.head_reached());
+  rig.run_until(1.0, 0.05);
+  EXPECT_NEAR(rad_to_deg(w.true_head().pan_rad), 60.0, 1e-9);
+  rig.run_until(1.2, 0.05);
+  EXPECT_TRUE(w.head_reached());
+  // Encoder noise: measured differs from the truth by a few hundredths of a degree.
+  EXPECT_NE(w.measured_head().pan_rad, w.true_head().pan_rad);
+  EXPECT_NEAR(rad_to_deg(w.measured_head().pan_rad), 60.0, 0.1);
+  // Commands beyond the limits stop at the limit.
+  w.command_head({deg_to_rad(300.0), 0.0});
+  rig.run_until(5.0, 0.05);
+  EXPECT_NEAR(rad_to_deg(w.true_head().pan_rad), 170.0, 1e-9);
+}
+
+// The pixels a perfect robot would choose: the true Model Points through the true projector.
+std::array<Eigen::Vector2d, 4> true_pixels(const Rig& rig, const SimWorld& w) {
+  std::array<Eigen::Vector2d, 4> px;
+  const Eigen::Isometry3d T_projector_map = w.true_T_map_projector().inverse();
+  for (int i = 0; i < 4; ++i) {
+    const auto p = rig.mission.robot.projector.intrinsics.project(
+        T_projector_map * w.true_T_map_model("sign") * rig.mission.targets[0].model_points[i]);
+    EXPECT_TRUE(p);
+    px[i] = *p;
+  }
+  return px;
+}
+
+// Aims the head at the sign from its stand-off pose.
+void aim_at_sign(Rig& rig, SimWorld& w) {
+  const HeadKinematics head(rig.mission.robot);
+  const Eigen::Vector3d p_base = w.true_T_map_base().inverse() * Eigen::Vector3d(3.0, 0.0, 0.9);
+  const auto q = head.aim_projector_at(p_base);
+  ASSERT_TRUE(q);
+  w.command_head(*q);
+  rig.run_until(w.time_s() + 2.0);
+  ASSERT_TRUE(w.head_reached());
+}
+
+TEST(SimReferee, ZeroForTruePixelsAndExpectedForAnOffset) {
+  Rig rig(1, {2.0, 0.0, 0.0});
+  SimWorld& w = rig.make();
+  w.advance(0.0);
+  aim_at_sign(rig, w);
+  const auto px = true_pixels(rig, w);
+  const auto exact = w.evaluate_projection("sign", px);
+  ASSERT_TRUE(exact);
+  EXPECT_LT(exact->mean_mm(), 0.01);
+  EXPECT_LT(exact->mean_px(), 1e-6);
+  // 10 projector pixels at about 0.98 m with f = 1920 px: about 5.1 mm on the board.
+  auto shifted = px;
+  for (auto& p : shifted) p.x() += 10.0;
+  const auto off = w.evaluate_projection("sign", shifted);
+  ASSERT_TRUE(off);
+  EXPECT_NEAR(off->mean_px(), 10.0, 1e-6);
+  EXPECT_NEAR(off->mean_mm(), 10.0 * 0.98 / 1920.0 * 1000.0, 0.4);
+  EXPECT_FALSE(w.evaluate_projection("nope", px));
+  // A pixel off the board lands on the Model Points' plane instead: still a finite error.
+  auto outside = px;
+  outside[0].x() -= 600.0;
+  const auto plane = w.evaluate_projection("sign", outside);
+  ASSERT_TRUE(plane);
+  EXPECT_GT(plane->error_mm[0], 250.0);
+  EXPECT_LT(plane->error_mm[0], 350.0);
+}
+
+TEST(SimReferee, CalibrationErrorShowsInTheProjection) {
+  Rig rig(3, {2.0, 0.0, 0.0});
+  rig.world.calibration_error_mm = 1.0;
+  rig.world.calibration_error_deg = 0.1;
+  SimWorld& w = rig.make();
+  w.advance(0.0);
+  aim_at_sign(rig, w);
+  // Pixels the robot computes with the robot file's (believed) projector mount.
+  const HeadKinematics believed(rig.mission.robot);
+  const Eigen::Isometry3d T_map_projector_believed =
+      w.true_T_map_base() * believed.T_base_projector(w.true_head());
+  std::array<Eigen::Vector2d, 4> px;
+  for (int i = 0; i < 4; ++i) {
+    px[i] = *rig.mission.robot.projector.intrinsics.project(T_map_projector_believed.inverse() *
+                                                            w.true_T_map_model("sign") *
+                                                            rig.mission.targets[0].model_points[i]);
+  }
+  const auto truth = w.evaluate_projection("sign", px);
+  ASSERT_TRUE(truth);
+  // 0.1 deg at 1 m is 1.7 mm, plus up to 1 mm of offset.
+  EXPECT_GT(truth->mean_mm(), 0.3);
+  EXPECT_LT(truth->mean_mm(), 3.0);
+}
+
+TEST(SimReferee, WritesBeforeAndAfterViews) {
+  Rig rig(1, {2.0, 0.0, 0.0});
+  SimWorld& w = rig.make();
+  w.advance(0.0);
+  aim_at_sign(rig, w);
+  const auto px = true_pixels(rig, w);
+  auto before = px;
+  for (auto& p : before) p += Eigen::Vector2d(40.0, -25.0);
+  const auto dir = std::filesystem::temp_directory_path() / "projtour_test_sim_views";
+  std::filesystem::remove_all(dir);
+  w.write_projection_views("sign", before, px, dir);
+  for (const char* name : {"before.png", "after.png"}) {
+    const cv::Mat image = cv::imread((dir / name).string());
+    ASSERT_FALSE(image.empty()) << name;
+    EXPECT_EQ(image.cols, 640);
+    EXPECT_EQ(image.rows, 480);
+    // The shaded board fills the middle.
+    const cv::Vec3b centre = image.at<cv::Vec3b>(240, 320);
+    EXPECT_GT(centre[0], 150) << name;
+  }
+}
+
+// Pixels of a frame within a depth band.
+int sign_pixels(const DepthFrame& f, double lo_mm, double hi_mm) {
+  int n = 0;
+  for (std::uint16_t d : f.depth_mm) n += d >= lo_mm && d <= hi_mm;
+  return n;
+}
+
+TEST(SimCamera, SeesTheSignAtItsDistanceDeterministically) {
+  auto frames_of = [](std::uint64_t seed) {
+    Rig rig(seed, {2.0, 0.0, 0.0});
+    SimWorld& w = rig.make();
+    w.advance(0.0);
+    std::vector<DepthFrame> out;
+    for (int k = 0; k < 2; ++k) {
+      rig.run_until(w.time_s() + 0.1);
+      auto f = w.grab();
+      EXPECT_TRUE(f);
+      out.push_back(*f);
+    }
+    return out;
+  };
+  const auto a = frames_of(4), b = frames_of(4), c = frames_of(5);
+  EXPECT_EQ(a[0].width, 640);
+  EXPECT_EQ(a[0].t_s, 0.1);
+  EXPECT_EQ(a[1].sequence, 2u);
+  EXPECT_EQ(a[0].depth_mm, b[0].depth_mm);
+  EXPECT_EQ(a[1].depth_mm, b[1].depth_mm);
+  EXPECT_NE(a[0].depth_mm, c[0].depth_mm);
+  // The board's front is ~0.99 m ahead of the base, seen by a camera 8 cm forward of the pan axis
+  // and pitched down 20 deg: a few thousand pixels between 0.8 and 1.2 m.
+  EXPECT_GT(sign_pixels(a[0], 800, 1200), 20000);
+}
+
+TEST(SimFaults, TargetMissingAndOccluder) {
+  Rig plain(1, {2.0, 0.0, 0.0});
+  plain.make().advance(0.0);
+  const int with_sign = sign_pixels(*plain.sim->grab(), 800, 1200);
+
+  Rig missing(1, {2.0, 0.0, 0.0});
+  missing.world.faults.push_back({"sign", "target_missing", {}, {}});
+  missing.make().advance(0.0);
+  EXPECT_LT(sign_pixels(*missing.sim->grab(), 800, 1200), with_sign / 10);
+
+  Rig occluded(1, {2.0, 0.0, 0.0});
+  occluded.world.faults.push_back(
+      {"sign", "occluder", {{"distance_m", 0.5}, {"width_m", 0.6}}, {}});
+  occluded.make().advance(0.0);
+  const DepthFrame f = *occluded.sim->grab();
+  EXPECT_LT(sign_pixels(f, 800, 1200), with_sign / 10);
+  // The board 0.3 m in front of the sign, about 0.65 m from the camera.
+  EXPECT_GT(sign_pixels(f, 550, 800), with_sign / 2);
+}
+
+TEST(SimFaults, FrameDropoutAndCameraDisconnect) {
+  Rig rig(1, {2.0, 0.0, 0.0});
+  rig.world.faults.push_back({"sign", "frame_dropout", {{"fraction", 1.0}}, {}});
+  SimWorld& w = rig.make();
+  w.advance(0.0);
+  EXPECT_EQ(w.active_target(), "sign");
+  auto f = w.grab();
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->valid_count(), 0u);
+  EXPECT_EQ(f->depth_mm.size(), 640u * 480u);
+  // Away from the target the fault does not act.
+  w.set_true_base_pose({-1.0, 0.0, kPi});
+  rig.run_until(0.2);
+  EXPECT_EQ(w.active_target(), "");
+  f = w.grab();
+  ASSERT_TRUE(f);
+  EXPECT_GT(f->valid_count(), 1000u);
+
+  Rig gone(1, {2.0, 0.0, 0.0});
+  gone.world.faults.push_back({"sign", "camera_disconnect", {{"after_frames", 2}}, {}});
+  SimWorld& g = gone.make();
+  g.advance(0.0);
+  EXPECT_TRUE(g.grab());
+  gone.run_until(0.1);
+  EXPECT_TRUE(g.grab());
+  gone.run_until(0.2);
+  EXPECT_THROW(g.grab(), DriverError);
+}
+
+TEST(SimFaults, KidnapOnArrival) {
+  Rig rig(1, {1.0, 0.0, 0.0});
+  rig.world.faults.push_back({"sign", "kidnap", {{"distance_m", 1.0}}, {}});
+  SimWorld& w = rig.make();
+  w.advance(0.0);
+  w.command_velocity(0.5, 0.0);
+  rig.run_until(2.0);  // arrives near x = 2 (the stand-off pose)
+  w.command_velocity(0.0, 0.0);
+  const Pose2D odo_before = w.odometry().pose;
+  rig.run_until(3.0);
+  const Pose2D truth = pose2d_from_isometry(w.true_T_map_base());
+  // The truth jumped by about a metre; the odometry did not notice.
+  EXPECT_NEAR(std::hypot(truth.x_m - odo_before.x_m, truth.y_m - odo_before.y_m), 1.0, 0.15);
+  EXPECT_NEAR(w.odometry().pose.x_m, odo_before.x_m, 0.02);
+}
+
+TEST(SimProjector, LogsShowsAndMotionAndInjectsFailure) {
+  Rig rig(1, {2.0, 0.0, 0.0});
+  SimWorld& w = rig.make();
+  w.advance(0.0);
+  const PinholeModel& k = rig.mission.robot.projector.intrinsics;
+  const cv::Mat frame(k.height, k.width, CV_8UC3, cv::Scalar(0, 0, 255));
+  EXPECT_TRUE(w.is_blank());
+  w.show(frame);
+  EXPECT_FALSE(w.is_blank());
+  rig.run_until(1.0);
+  EXPECT_EQ(w.lit_while_moving_s(), 0.0);
+  w.command_velocity(0.2, 0.0);
+  rig.run_until(2.0);
+  EXPECT_GT(w.lit_while_moving_s(), 0.5);
+  w.show(frame);
+  w.blank();
+  ASSERT_EQ(w.projector_log().size(), 3u);
+  EXPECT_FALSE(w.projector_log()[0].base_moving);
+  EXPECT_TRUE(w.projector_log()[1].base_moving);
+  EXPECT_NEAR(w.projector_log()[1].t_s, 2.0, 1e-9);
+  EXPECT_EQ(w.projector_log()[1].target, "sign");
+  EXPECT_THROW(w.show(cv::Mat(10, 10, CV_8UC3)), std::invalid_argument);
+
+  Rig failing(1, {2.0, 0.0, 0.0});
+  failing.world.faults.push_back({"sign", "projector_failure", {{"after_shows", 1}}, {}});
+  SimWorld& f = failing.make();
+  f.advance(0.0);
+  f.show(frame);
+  EXPECT_THROW(f.show(frame), DriverError);
+}
+
+TEST(SimFaults, BlockedPathStopsTheBaseAndTheLaserSeesIt) {
+  Rig rig(1, {0.5, 0.0, 0.0});
+  rig.world.faults.push_back({"sign", "blocked_path", {{"size_m", 0.6}}, {}});
+  SimWorld& w = rig.make();
+  w.advance(0.0);
+  const auto scan = w.take_scan();
+  ASSERT_TRUE(scan);
+  // Box face at x = 2 - 0.3 = 1.7; laser at x = 0.7.
+  EXPECT_NEAR(scan->ranges_m[270], 1.0, 0.08);
+  w.command_velocity(0.5, 0.0);
+  rig.run_until(6.0);
+  EXPECT_TRUE(w.base_blocked());
+  EXPECT_LT(pose2d_from_isometry(w.true_T_map_base()).x_m, 1.7 - 0.1);
+}
+
+TEST(SimPlugin, ProvidesFiveDriversSharingOneWorld) {
+  PluginRegistry registry;
+  registry.load_library(std::filesystem::path(PROJTOUR_PLUGIN_BUILD_DIR) / "libprojtour_sim.so");
+  Rig rig(1, {2.0, 0.0, 0.0});
+  std::vector<std::shared_ptr<Driver>> drivers;
+  for (const char* kind :
+       {"sim_base", "sim_laser", "sim_pan_tilt", "sim_depth_camera", "sim_projector"}) {
+    const KindInfo& info = registry.require(kind);
+    EXPECT_EQ(info.family, Family::driver);
+    drivers.push_back(registry.create_driver(kind, Params::defaults(info.params), rig.run));
+    ASSERT_TRUE(drivers.back());
+  }
+  GroundTruth* truth = drivers[0]->ground_truth();
+  ASSERT_NE(truth, nullptr);
+  for (const auto& d : drivers) EXPECT_EQ(d->ground_truth(), truth);
+  auto base = std::dynamic_pointer_cast<BaseDriver>(drivers[0]);
+  ASSERT_TRUE(base);
+  for (const auto& d : drivers) d->update(0.0);
+  base->command_velocity(0.2, 0.0);
+  for (int k = 1; k <= 10; ++k) {
+    for (const auto& d : drivers) d->update(0.1 * k);  // every driver, same t: one step
+  }
+  EXPECT_NEAR(truth->true_T_map_base().translation().x(), 2.0 + 0.2 * 1.0, 0.05);
+}
+
+}  // namespace
+}  // namespace projtour::sim
