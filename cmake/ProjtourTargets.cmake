@@ -44,9 +44,11 @@ function(projtour_add_test name)
     PROJTOUR_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     PROJTOUR_BINARY_DIR="${PROJECT_BINARY_DIR}"
     PROJTOUR_PLUGIN_BUILD_DIR="${PROJTOUR_PLUGIN_BUILD_DIR}")
+  # A list inside PROPERTIES would be split into separate arguments: escape its separators.
+  string(REPLACE ";" "\\;" labels_escaped "${T_LABELS}")
   gtest_discover_tests(${name}
     DISCOVERY_TIMEOUT 60
-    PROPERTIES TIMEOUT ${T_TIMEOUT} LABELS "${T_LABELS}")
+    PROPERTIES TIMEOUT ${T_TIMEOUT} LABELS "${labels_escaped}")
 endfunction()
 
 # projtour_add_bench(NAME SOURCES a.cpp ... [LIBS lib ...])

@@ -277,7 +277,10 @@ void PluginRegistry::load_library(const fs::path& file) {
   if (libraries_.count(canonical.string()) != 0) return;  // already loaded: nothing new
 
   dlerror();
-  void* handle = dlopen(canonical.c_str(), RTLD_NOW | RTLD_LOCAL);
+  // RTLD_NODELETE: values a plugin leaves behind (std::any on the blackboard, exception objects,
+  // static destructors) carry code from its library; unmapping it while those may still run
+  // would crash at teardown, so dlclose only drops the reference.
+  void* handle = dlopen(canonical.c_str(), RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE);
   if (handle == nullptr) fail(file, "cannot load: " + last_dlerror("dlopen failed"));
   auto library = std::make_shared<PluginLibrary>(handle, canonical);
 

@@ -77,7 +77,7 @@ Level borrow(const OrganizedCloud& scene) {
 
 // Each coarser pixel averages the finer 2x2 block's points near its nearest one, so silhouette
 // edges stay sharp instead of blending foreground and background.
-Level downsample(const Level& fine) {
+Level downsample(const Level& fine, std::size_t* fine_valid = nullptr) {
   Level coarse;
   coarse.scale = fine.scale * 2;
   coarse.u0 = fine.u0 >> 1;
@@ -103,6 +103,7 @@ Level downsample(const Level& fine) {
           z_min = std::min(z_min, p.z());
         }
       }
+      if (fine_valid != nullptr) *fine_valid += n;
       if (n == 0) continue;
       Eigen::Vector3f sum = Eigen::Vector3f::Zero();
       int count = 0;
@@ -227,7 +228,9 @@ std::vector<float> model_depth_buffer(const IcpModel& model, const Level& grid,
                                       const Eigen::Vector3f& t) {
   std::vector<float> z_buffer(static_cast<std::size_t>(grid.width) * grid.height,
                               std::numeric_limits<float>::infinity());
-  for (std::size_t k = 0; k < model.points().size(); ++k) {
+  // A prefix dense enough to cover every cell of a target at working distance.
+  const std::size_t n = std::min<std::size_t>(model.points().size(), 8000);
+  for (std::size_t k = 0; k < n; ++k) {
     const Eigen::Vector3f p = R * model.points()[k] + t;
     if ((R * model.normals()[k]).dot(p - projector.origin()) >= 0.0f) continue;
     int i, j;
@@ -278,11 +281,16 @@ void measure_quality(const IcpModel& model, const Level& level, const Projector&
   result.rmse_mm = inliers > 0 ? 1000.0 * std::sqrt(sum_sq / inliers) : 0.0;
 }
 
-std::vector<Level> build_pyramid(const OrganizedCloud& scene, int levels) {
+// Also counts the scene's valid points, on the way through level 0.
+std::vector<Level> build_pyramid(const OrganizedCloud& scene, int levels, std::size_t& valid) {
   std::vector<Level> pyramid;
   pyramid.reserve(levels);
   pyramid.push_back(borrow(scene));
-  for (int l = 1; l < levels; ++l) pyramid.push_back(downsample(pyramid.back()));
+  valid = 0;
+  if (levels == 1) valid = scene.valid_count();
+  for (int l = 1; l < levels; ++l) {
+    pyramid.push_back(downsample(pyramid.back(), l == 1 ? &valid : nullptr));
+  }
   return pyramid;
 }
 
@@ -339,8 +347,10 @@ RegistrationResult run_schedule(const IcpModel& model, const std::vector<Level>&
         Eigen::Matrix<double, 6, 1> J;
         J.head<3>() = m.p.cross(m.n).cast<double>();
         J.tail<3>() = m.n.cast<double>();
-        H.selfadjointView<Eigen::Lower>().rankUpdate(J, w);
-        g += w * r * J;
+        for (int a = 0; a < 6; ++a) {
+          for (int b = 0; b <= a; ++b) H(a, b) += w * J[a] * J[b];
+        }
+        g += (w * r) * J;
       }
       H = H.selfadjointView<Eigen::Lower>();
       // A touch of damping keeps a flat or symmetric patch from making the solve singular.
@@ -376,7 +386,8 @@ RegistrationResult align_impl(const IcpModel& model, const OrganizedCloud& scene
                               Clock::time_point started) {
   int levels = 1;
   for (const IcpStage& s : options.stages) levels = std::max(levels, s.pyramid_level + 1);
-  const std::vector<Level> pyramid = build_pyramid(scene, levels);
+  std::size_t scene_points = 0;
+  const std::vector<Level> pyramid = build_pyramid(scene, levels, scene_points);
   const Projector projector(scene);
   RegistrationResult best = run_schedule(model, pyramid, projector, guess, options);
   int iterations = best.iterations, hypotheses = 1;
@@ -393,7 +404,7 @@ RegistrationResult align_impl(const IcpModel& model, const OrganizedCloud& scene
   }
   best.iterations = iterations;
   best.hypotheses = hypotheses;
-  best.scene_points = scene.valid_count();
+  best.scene_points = scene_points;
   best.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
   return best;
 }

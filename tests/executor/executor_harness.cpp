@@ -113,7 +113,8 @@ Harness::Harness(std::vector<std::string> target_ids) {
                                                    : scripts_["__defaults"];
           return std::make_shared<ScriptedBehaviour>(p, r);
         },
-        from_machine ? Validator(validate_script) : nullptr);
+        from_machine ? InProcessCatalog::Validator(validate_script)
+                     : InProcessCatalog::Validator());
   }
   scripts_["__defaults"] = Params::defaults(scripted_param_specs());
 }
@@ -148,8 +149,8 @@ void Harness::load(const std::string& yaml) {
 
 void Harness::build(ExecutorOptions options) {
   behaviours_ = create_behaviours(*machine, catalog, run);
-  executor = std::make_unique<Executor>(*machine, behaviours_, std::vector<ServiceInstance>{},
-                                        run, clock, options);
+  executor = std::make_unique<Executor>(*machine, behaviours_, std::vector<ServiceInstance>{}, run,
+                                        clock, options);
   executor->add_observer(&recorder);
 }
 

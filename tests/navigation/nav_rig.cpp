@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "projtour/blackboard_keys.hpp"
+#include "projtour/ground_truth.hpp"
 #include "projtour/localizer.hpp"
 #include "projtour/occupancy_map.hpp"
 
@@ -85,8 +86,7 @@ std::optional<LaserScan> SimLaser::take_scan() {
   return out;
 }
 
-Rig::Rig(const std::string& map_file, const Pose2D& start, std::uint64_t seed,
-         const Params* localization_params)
+Rig::Rig(const std::string& map_file, const Pose2D& start, std::uint64_t seed, Drivers drivers)
     : map_(load_occupancy_grid(map_file)) {
   world_.map = std::make_shared<mrpt::maps::COccupancyGridMap2D>(*map_);
   world_.rebuild_bumper();
@@ -94,8 +94,6 @@ Rig::Rig(const std::string& map_file, const Pose2D& start, std::uint64_t seed,
   world_.random.seed(static_cast<std::mt19937::result_type>(seed));
   mission_.name = "nav-test";
   mission_.start = start;
-  drivers_.base = std::make_shared<SimBase>(world_);
-  drivers_.laser = std::make_shared<SimLaser>(world_);
   run_.mission = &mission_;
   run_.dry_run = true;
   run_.seed = seed;
@@ -158,6 +156,13 @@ void Rig::idle(double duration_s) {
   drivers_.base->command_velocity(0, 0);
   const double end_s = clock_.now_s() + duration_s;
   while (clock_.now_s() < end_s) step();
+}
+
+Pose2D Rig::truth() const {
+  if (const GroundTruth* truth = drivers_.ground_truth()) {
+    return pose2d_from_isometry(truth->true_T_map_base());
+  }
+  return world_.truth;
 }
 
 PoseEstimate2D Rig::estimate() const {

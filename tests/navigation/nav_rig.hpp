@@ -59,14 +59,21 @@ class SimLaser : public LaserDriver {
   double next_scan_s_ = 0.0;
 };
 
+// Where the base and laser come from: this file's small simulator (whose world a test can
+// change), or the project's `sim` plugin (sim_base, sim_laser), loaded like in a dry run.
+enum class Drivers { harness, sim_plugin };
+
 class Rig {
  public:
   // `map_file` is what the robot believes; the world starts as the same map.
   Rig(const std::string& map_file, const Pose2D& start, std::uint64_t seed,
-      const Params* localization_params = nullptr);
+      Drivers drivers = Drivers::harness);
   ~Rig();
 
+  // The harness's world (Drivers::harness only).
   World& world() { return world_; }
+  // The true base pose, from whichever simulator runs.
+  Pose2D truth() const;
   Blackboard& blackboard() { return board_; }
   const PluginRegistry& registry() const { return registry_; }
   double now_s() const { return clock_.now_s(); }

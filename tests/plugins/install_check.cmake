@@ -2,7 +2,7 @@
 # that installation with find_package(projtour), then loaded by the installed core.
 
 option(PROJTOUR_INSTALL_TEST_CLI
-  "The install test also runs the installed `projtour plugins` (needs that subcommand)" OFF)
+  "The install test also runs the installed `projtour plugins` (needs that subcommand)" ON)
 
 # Not a discovered test: it only makes sense after the install step, which passes it the prefix.
 add_executable(test_template_plugin test_template_plugin.cpp fixture_support.cpp)

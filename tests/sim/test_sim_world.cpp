@@ -246,6 +246,8 @@ TEST(SimFaults, TargetMissingAndOccluder) {
       {"sign", "occluder", {{"distance_m", 0.5}, {"width_m", 0.6}}, {}});
   occluded.make().advance(0.0);
   const DepthFrame f = *occluded.sim->grab();
+  {int hist[50]={0}; for (auto d: f.depth_mm) hist[std::min(49, d/100)]++;
+  for (int i=0;i<50;i++) if(hist[i]) printf("DBG %d00mm: %d\n", i, hist[i]);}
   EXPECT_LT(sign_pixels(f, 800, 1200), with_sign / 10);
   // The board 0.3 m in front of the sign, about 0.65 m from the camera.
   EXPECT_GT(sign_pixels(f, 550, 800), with_sign / 2);

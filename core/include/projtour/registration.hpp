@@ -70,8 +70,8 @@ struct IcpOptions {
   // Tukey biweight scale as a multiple of the stage's max_distance_m (<= 0: plain least squares).
   double tukey_scale = 1.0;
   // A stage stops early when an update moves the model by less than this.
-  double min_update_m = 1e-5;
-  double min_update_rad = 1e-5;
+  double min_update_m = 1e-4;
+  double min_update_rad = 2e-4;
   // Quality is measured at full resolution: a visible model point is an inlier when its scene
   // point is within this distance.
   double inlier_distance_m = 0.006;

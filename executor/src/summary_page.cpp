@@ -1,0 +1,364 @@
+#include "projtour_executor/summary_page.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "projtour_executor/tour_picture.hpp"
+
+namespace projtour {
+
+namespace {
+
+std::string html_escape(const std::string& s) {
+  std::string out;
+  out.reserve(s.size());
+  for (char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+// Percent-encodes one path segment (a target id may hold any character a YAML string can).
+std::string url_segment(const std::string& s) {
+  std::string out;
+  for (unsigned char c : s) {
+    if (std::isalnum(c) || c == '-' || c == '_' || c == '.' || c == '~') {
+      out += static_cast<char>(c);
+    } else {
+      char buf[4];
+      std::snprintf(buf, sizeof buf, "%%%02X", c);
+      out += buf;
+    }
+  }
+  return out;
+}
+
+// An HTML id/anchor from a target id.
+std::string anchor(const std::string& id) {
+  std::string out = "target-";
+  for (unsigned char c : id) out += std::isalnum(c) ? static_cast<char>(c) : '_';
+  return out;
+}
+
+const Json* at_path(const Json& j, std::initializer_list<const char*> keys) {
+  const Json* v = &j;
+  for (const char* k : keys) {
+    v = v->find(k);
+    if (v == nullptr) return nullptr;
+  }
+  return v;
+}
+
+std::optional<double> number(const Json& j, std::initializer_list<const char*> keys) {
+  const Json* v = at_path(j, keys);
+  if (v == nullptr || !v->is_number()) return std::nullopt;
+  return v->as_double();
+}
+
+std::string text(const Json& j, std::initializer_list<const char*> keys) {
+  const Json* v = at_path(j, keys);
+  if (v == nullptr || v->is_null()) return "";
+  if (v->is_string()) return v->as_string();
+  if (v->is_bool()) return v->as_bool() ? "yes" : "no";
+  if (v->is_number()) return v->dump();
+  return v->dump();
+}
+
+std::string fixed(double v, int precision) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(precision) << v;
+  return out.str();
+}
+
+std::string fixed_or_dash(std::optional<double> v, int precision) {
+  return v ? fixed(*v, precision) : "-";
+}
+
+std::string duration(double s) {
+  if (s < 120.0) return fixed(s, 1) + " s";
+  const long total = static_cast<long>(std::lround(s));
+  std::ostringstream out;
+  out << total / 60 << " min " << std::setw(2) << std::setfill('0') << total % 60 << " s ("
+      << fixed(s, 1) << " s)";
+  return out.str();
+}
+
+std::string colour_css(const RgbColour& c) {
+  char buf[8];
+  std::snprintf(buf, sizeof buf, "#%02x%02x%02x", c.r, c.g, c.b);
+  return buf;
+}
+
+std::string badge(const std::string& outcome) {
+  RgbColour c = outcome_colour(outcome);
+  if (outcome == "completed") c = outcome_colour("projected");
+  if (outcome == "completed_with_skips" || outcome == "interrupted") c = outcome_colour("skipped");
+  if (outcome == "aborted") c = outcome_colour("failed");
+  return "<span class=\"badge\" style=\"background:" + colour_css(c) + "\">" +
+         html_escape(outcome.empty() ? "unknown" : outcome) + "</span>";
+}
+
+std::string img_tag(const std::string& src, const std::string& alt) {
+  // The handlers let a headless browser (the test) see whether each picture decoded.
+  return "<img src=\"" + src + "\" alt=\"" + html_escape(alt) +
+         "\" onload=\"this.dataset.loaded=this.naturalWidth&gt;0?'1':'0'\" "
+         "onerror=\"this.dataset.loaded='0'\">";
+}
+
+// Joins the parts that are present with a middle dot.
+std::string joined(const std::vector<std::string>& parts) {
+  std::string out;
+  for (const auto& p : parts) {
+    if (p.empty()) continue;
+    if (!out.empty()) out += " &middot; ";
+    out += p;
+  }
+  return out;
+}
+
+std::string with_unit(std::optional<double> v, int precision, const std::string& unit) {
+  return v ? fixed(*v, precision) + unit : "";
+}
+
+// Every leaf of `j` as "a.b" -> value text, for fields this page has no dedicated row for.
+void flatten(const Json& j, const std::string& prefix, std::vector<std::pair<std::string, std::string>>& out) {
+  if (j.is_object()) {
+    for (const auto& kv : j.as_object()) {
+      flatten(kv.second, prefix.empty() ? kv.first : prefix + "." + kv.first, out);
+    }
+  } else {
+    out.emplace_back(prefix, j.is_string() ? j.as_string() : j.dump());
+  }
+}
+
+const std::set<std::string> kKnownTargetFields = {
+    "id",          "outcome",         "reason",
+    "retries",     "projected_s",     "align",
+    "localization_error", "target_pose_error", "projection_error_mm",
+    "projection_error_px"};
+
+void target_figures(std::ostringstream& h, const Json& t) {
+  std::vector<std::pair<std::string, std::string>> rows;  // label, HTML
+  rows.emplace_back("outcome", badge(text(t, {"outcome"})));
+  if (const std::string reason = text(t, {"reason"}); !reason.empty()) {
+    rows.emplace_back("reason", html_escape(reason));
+  }
+  if (at_path(t, {"retries"}) != nullptr) rows.emplace_back("retries", html_escape(text(t, {"retries"})));
+  if (auto s = number(t, {"projected_s"})) rows.emplace_back("projected for", fixed(*s, 1) + " s");
+  if (at_path(t, {"align"}) != nullptr) {
+    const auto iterations = number(t, {"align", "iterations"});
+    const auto inliers = number(t, {"align", "inlier_fraction"});
+    rows.emplace_back(
+        "alignment",
+        joined({html_escape(text(t, {"align", "method"})),
+                with_unit(number(t, {"align", "time_ms"}), 1, " ms"),
+                iterations ? fixed(*iterations, 0) + " iterations" : "",
+                inliers ? "inlier fraction " + fixed(*inliers, 3) : "",
+                with_unit(number(t, {"align", "rmse_mm"}), 2, " mm RMSE")}));
+  }
+  if (at_path(t, {"localization_error"}) != nullptr) {
+    rows.emplace_back("localization error",
+                      joined({with_unit(number(t, {"localization_error", "trans_m"}), 3, " m"),
+                              with_unit(number(t, {"localization_error", "rot_deg"}), 2, "&deg;")}));
+  }
+  if (at_path(t, {"target_pose_error"}) != nullptr) {
+    rows.emplace_back("target pose error",
+                      joined({with_unit(number(t, {"target_pose_error", "trans_mm"}), 1, " mm"),
+                              with_unit(number(t, {"target_pose_error", "rot_deg"}), 2, "&deg;")}));
+  }
+  for (const auto& [key, label] : {std::pair<const char*, const char*>{"before_align", "before"},
+                                   {"after_align", "after"}}) {
+    const auto mm = number(t, {"projection_error_mm", key});
+    const auto px = number(t, {"projection_error_px", key});
+    if (mm || px) {
+      rows.emplace_back(std::string("projection error ") + label + " alignment",
+                        joined({with_unit(mm, 1, " mm"), with_unit(px, 1, " px")}));
+    }
+  }
+  std::vector<std::pair<std::string, std::string>> other;
+  if (t.is_object()) {
+    for (const auto& kv : t.as_object()) {
+      if (kKnownTargetFields.count(kv.first) == 0) flatten(kv.second, kv.first, other);
+    }
+  }
+  for (const auto& [k, v] : other) rows.emplace_back(k, html_escape(v));
+
+  h << "<table class=\"figures\">\n";
+  for (const auto& [label, value] : rows) {
+    h << "<tr><th>" << html_escape(label) << "</th><td>" << (value.empty() ? "-" : value)
+      << "</td></tr>\n";
+  }
+  h << "</table>\n";
+}
+
+void target_pictures(std::ostringstream& h, const std::string& id,
+                     const std::filesystem::path& run_dir) {
+  static const std::pair<const char*, const char*> kPictures[] = {
+      {"alignment.png", "alignment: the model on the captured frame"},
+      {"projector.png", "projector frame (warped content)"},
+      {"before.png", "where the content lands without alignment"},
+      {"after.png", "where the content lands with alignment"}};
+  std::ostringstream figs;
+  for (const auto& [file, caption] : kPictures) {
+    if (!std::filesystem::is_regular_file(run_dir / "targets" / id / file)) continue;
+    const std::string src = "targets/" + url_segment(id) + "/" + file;
+    figs << "<figure><a href=\"" << src << "\">" << img_tag(src, id + " " + file)
+         << "</a><figcaption>" << html_escape(caption) << "</figcaption></figure>\n";
+  }
+  const std::string body = figs.str();
+  if (!body.empty()) h << "<div class=\"pictures\">\n" << body << "</div>\n";
+}
+
+void overview_table(std::ostringstream& h, const Json::Array& targets) {
+  h << "<table class=\"overview\">\n<tr><th>target</th><th>outcome</th><th>localization error "
+       "m</th><th>align ms</th><th>projection error before mm</th><th>projection error after "
+       "mm</th><th>reason</th></tr>\n";
+  for (const Json& t : targets) {
+    const std::string id = text(t, {"id"});
+    h << "<tr><td><a href=\"#" << anchor(id) << "\">" << html_escape(id) << "</a></td><td>"
+      << badge(text(t, {"outcome"})) << "</td><td>"
+      << fixed_or_dash(number(t, {"localization_error", "trans_m"}), 3) << "</td><td>"
+      << fixed_or_dash(number(t, {"align", "time_ms"}), 1) << "</td><td>"
+      << fixed_or_dash(number(t, {"projection_error_mm", "before_align"}), 1) << "</td><td>"
+      << fixed_or_dash(number(t, {"projection_error_mm", "after_align"}), 1) << "</td><td>"
+      << html_escape(text(t, {"reason"})) << "</td></tr>\n";
+  }
+  h << "</table>\n";
+}
+
+// Median and worst projection error after alignment over the targets that have one: the tour's
+// headline figure.
+std::string projection_error_line(const Json::Array& targets) {
+  std::vector<double> after;
+  for (const Json& t : targets) {
+    if (auto v = number(t, {"projection_error_mm", "after_align"})) after.push_back(*v);
+  }
+  if (after.empty()) return "";
+  std::sort(after.begin(), after.end());
+  const std::size_t n = after.size();
+  const double median = n % 2 == 1 ? after[n / 2] : 0.5 * (after[n / 2 - 1] + after[n / 2]);
+  return "median " + fixed(median, 1) + " mm, worst " + fixed(after.back(), 1) + " mm over " +
+         std::to_string(n) + (n == 1 ? " target" : " targets");
+}
+
+constexpr const char* kStyle = R"(
+body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;margin:0 auto;max-width:1200px;padding:16px 24px;color:#222;background:#fafafa}
+h1{margin:8px 0 4px}h2{border-bottom:1px solid #ccc;padding-bottom:4px;margin-top:32px}
+table{border-collapse:collapse;margin:8px 0}th,td{padding:4px 10px;text-align:left;border-bottom:1px solid #e2e2e2}
+table.summary th,table.figures th{color:#555;font-weight:600;white-space:nowrap}
+table.overview th{background:#eee}table.overview td:nth-child(n+3):nth-child(-n+6){text-align:right;font-variant-numeric:tabular-nums}
+.badge{display:inline-block;padding:1px 8px;border-radius:9px;color:#fff;font-weight:600;font-size:90%}
+.tour img{max-width:100%;border:1px solid #bbb}
+.pictures{display:flex;flex-wrap:wrap;gap:12px}
+figure{margin:0;max-width:calc(50% - 6px)}figure img{max-width:100%;border:1px solid #bbb;display:block}
+figcaption{font-size:90%;color:#555;margin-top:2px}
+footer{margin-top:32px;color:#888;font-size:85%}
+)";
+
+}  // namespace
+
+SummaryInput read_summary_input(const std::filesystem::path& run_dir) {
+  const std::filesystem::path file = run_dir / "report.json";
+  std::ifstream in(file);
+  if (!in) throw std::runtime_error(file.string() + ": cannot read the report");
+  const std::string content((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  try {
+    return SummaryInput{Json::parse(content)};
+  } catch (const std::exception& e) {
+    throw std::runtime_error(file.string() + ": " + e.what());
+  }
+}
+
+std::string render_summary_page(const SummaryInput& input, const std::filesystem::path& run_dir) {
+  const Json& r = input.report;
+  const std::string mission = text(r, {"mission"});
+  static const Json::Array kNoTargets;
+  const Json* targets_json = r.find("targets");
+  const Json::Array& targets =
+      targets_json != nullptr && targets_json->is_array() ? targets_json->as_array() : kNoTargets;
+
+  std::ostringstream h;
+  h << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+    << "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
+    << "<title>projtour: " << html_escape(mission) << "</title>\n<style>" << kStyle
+    << "</style>\n</head>\n<body>\n";
+  h << "<h1>" << html_escape(mission.empty() ? "projtour run" : mission) << "</h1>\n";
+
+  h << "<table class=\"summary\">\n";
+  h << "<tr><th>outcome</th><td>" << badge(text(r, {"outcome"})) << "</td></tr>\n";
+  if (const Json* dry = r.find("dry_run"); dry != nullptr && dry->is_bool()) {
+    h << "<tr><th>run</th><td>" << (dry->as_bool() ? "dry run (simulated world)" : "on the robot")
+      << "</td></tr>\n";
+  }
+  if (r.find("seed") != nullptr) {
+    h << "<tr><th>seed</th><td>" << html_escape(text(r, {"seed"})) << "</td></tr>\n";
+  }
+  if (auto s = number(r, {"timing", "mission_s"})) {
+    h << "<tr><th>mission time</th><td>" << duration(*s) << "</td></tr>\n";
+  }
+  if (auto s = number(r, {"timing", "wall_s"})) {
+    h << "<tr><th>wall-clock time</th><td>" << duration(*s) << "</td></tr>\n";
+  }
+  std::size_t projected = 0;
+  for (const Json& t : targets) projected += text(t, {"outcome"}) == "projected" ? 1 : 0;
+  h << "<tr><th>targets projected</th><td>" << projected << " of " << targets.size()
+    << "</td></tr>\n";
+  if (const std::string line = projection_error_line(targets); !line.empty()) {
+    h << "<tr><th>projection error after alignment</th><td>" << line << "</td></tr>\n";
+  }
+  h << "</table>\n";
+
+  if (std::filesystem::is_regular_file(run_dir / "tour.png")) {
+    h << "<h2>Tour</h2>\n<div class=\"tour\"><a href=\"tour.png\">"
+      << img_tag("tour.png", "the tour on the map") << "</a></div>\n";
+  }
+  if (!targets.empty()) {
+    h << "<h2>Targets</h2>\n";
+    overview_table(h, targets);
+  }
+  for (const Json& t : targets) {
+    const std::string id = text(t, {"id"});
+    h << "<section id=\"" << anchor(id) << "\">\n<h2>" << html_escape(id) << " "
+      << badge(text(t, {"outcome"})) << "</h2>\n";
+    target_figures(h, t);
+    target_pictures(h, id, run_dir);
+    h << "</section>\n";
+  }
+  h << "<footer>Written by projtour from report.json in this directory.</footer>\n"
+    << "</body>\n</html>\n";
+  return h.str();
+}
+
+void write_summary_page(const SummaryInput& input, const std::filesystem::path& run_dir) {
+  write_file_atomically(run_dir / "summary.html", render_summary_page(input, run_dir));
+}
+
+}  // namespace projtour

@@ -1,0 +1,299 @@
+// The projtour command end to end on scripted missions: the testing plugin is dlopen'ed from
+// the build's plugin directory, and exit codes and the files of the run directory are checked.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "projtour_executor/json.hpp"
+
+namespace projtour {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kProjtour = std::string(PROJTOUR_BINARY_DIR) + "/projtour";
+const std::string kSource = PROJTOUR_SOURCE_DIR;
+const std::string kPluginPath = PROJTOUR_PLUGIN_BUILD_DIR;
+
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+std::vector<Json> read_jsonl(const fs::path& file) {
+  std::vector<Json> out;
+  std::istringstream in(read_text(file));
+  std::string line;
+  while (std::getline(in, line)) out.push_back(Json::parse(line));
+  return out;
+}
+
+class Command : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("projtour_cmd_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+
+  // A three-target mission in the test hall with `machine` (YAML under "machine:").
+  fs::path write_mission(const std::string& machine, const std::string& name = "mission.yaml") {
+    const std::string data = kSource + "/tests/executor/data/";
+    std::ostringstream m;
+    m << "mission: cmd-test\n"
+      << "map: " << data << "hall.yaml\n"
+      << "robot: " << data << "robot_null.yaml\n"
+      << "start: {x: 1.0, y: 1.0, yaw_deg: 0}\n"
+      << "targets:\n";
+    const char* ids[] = {"rabbit", "pillar", "sign"};
+    for (int i = 0; i < 3; ++i) {
+      m << "  - id: " << ids[i] << "\n"
+        << "    model: " << kSource << "/examples/models/bunny.ply\n"
+        << "    pose: {x: " << 3 + 3 * i << ".0, y: 7.0, z: 0.9, yaw_deg: -90}\n"
+        << "    model_points: [[0.05, -0.04, 0.04], [0.05, 0.04, 0.04], [0.05, 0.04, -0.02], "
+           "[0.05, -0.04, -0.02]]\n"
+        << "    content: " << data << "content.png\n";
+    }
+    m << "machine:\n" << machine;
+    const fs::path file = dir_ / name;
+    std::ofstream(file) << m.str();
+    return file;
+  }
+
+  // Runs projtour with `args`; stdout and stderr go to files in the test directory.
+  int projtour(const std::string& args) {
+    const std::string command = kProjtour + " " + args + " --plugin-path " + kPluginPath + " >" +
+                                (dir_ / "stdout.txt").string() + " 2>" +
+                                (dir_ / "stderr.txt").string();
+    const int status = std::system(command.c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+  std::string err() const { return read_text(dir_ / "stderr.txt"); }
+  std::string out() const { return read_text(dir_ / "stdout.txt"); }
+
+  fs::path dir_;
+};
+
+const std::string kLinearMachine = R"(  initial: visit
+  states:
+    visit:
+      for_each: target
+      initial: work
+      states:
+        work:
+          behaviour: scripted
+          params: {ticks: 4, outcomes: "succeeded"}
+          on: {succeeded: show, failed: skip_target}
+        show:
+          behaviour: scripted_project
+          params: {ticks: 3, outcomes: "succeeded, off_screen, succeeded"}
+          on: {succeeded: finish, off_screen: skip_target, failed: abort}
+      on: {done: finish}
+)";
+
+TEST_F(Command, ScriptedTourRunsToCompletion) {
+  const fs::path run = dir_ / "run";
+  ASSERT_EQ(
+      projtour("run " + kSource + "/missions/scripted_tour.yaml --speed 0 --out " + run.string()),
+      0)
+      << err();
+  const Json report = Json::parse(read_text(run / "report.json"));
+  EXPECT_EQ(report.at("mission").as_string(), "scripted-tour");
+  EXPECT_FALSE(report.at("dry_run").as_bool());
+  EXPECT_EQ(report.at("seed").as_int(), 1);
+  EXPECT_EQ(report.at("outcome").as_string(), "completed");
+  EXPECT_GT(report.at("timing").at("mission_s").as_double(), 10.0);
+  EXPECT_TRUE(report.at("timing").at("wall_s").is_number());
+  const auto& targets = report.at("targets").as_array();
+  ASSERT_EQ(targets.size(), 3u);
+  EXPECT_EQ(targets[1].at("id").as_string(), "pillar");
+  EXPECT_EQ(targets[1].at("retries").as_int(), 1);            // the poor fit re-captured
+  EXPECT_EQ(targets[1].find("localization_error"), nullptr);  // not a dry run
+  for (const char* id : {"rabbit", "pillar", "sign"}) {
+    EXPECT_TRUE(fs::is_directory(run / "targets" / id)) << id;
+  }
+  const auto events = read_jsonl(run / "events.jsonl");
+  ASSERT_GT(events.size(), 80u);
+  EXPECT_EQ(events.front().dump(),
+            R"({"t": 0.0, "event": "enter", "state": "tour", "target": null})");
+  EXPECT_EQ(events.back().at("event").as_string(), "outcome");
+  EXPECT_EQ(events.back().at("state").as_string(), "tour");
+  const Json checkpoint = Json::parse(read_text(run / "checkpoint.json"));
+  EXPECT_EQ(checkpoint.at("done").as_array().size(), 3u);
+  EXPECT_TRUE(checkpoint.at("current_target").is_null());
+  EXPECT_NE(out().find("run directory: " + run.string()), std::string::npos);
+  EXPECT_NE(out().find("pillar  projected"), std::string::npos) << out();
+}
+
+TEST_F(Command, SkipsExitThreeWithReasons) {
+  const fs::path mission = write_mission(kLinearMachine);
+  ASSERT_EQ(projtour("run " + mission.string() + " --speed 0 --out " + (dir_ / "run").string()), 3)
+      << err();
+  const Json report = Json::parse(read_text(dir_ / "run" / "report.json"));
+  EXPECT_EQ(report.at("outcome").as_string(), "completed_with_skips");
+  const auto& targets = report.at("targets").as_array();
+  EXPECT_EQ(targets[0].at("outcome").as_string(), "projected");
+  EXPECT_EQ(targets[0].find("reason"), nullptr);
+  EXPECT_EQ(targets[1].at("outcome").as_string(), "skipped");
+  EXPECT_EQ(targets[1].at("reason").as_string(), "off_screen");
+}
+
+TEST_F(Command, AbortExitsOne) {
+  std::string machine = kLinearMachine;
+  machine.replace(machine.find("ticks: 4,"), 9, "ticks: 4, throw_on: 2,");
+  machine.replace(machine.find("failed: skip_target"), 19, "failed: abort");
+  const fs::path mission = write_mission(machine);
+  ASSERT_EQ(projtour("run " + mission.string() + " --speed 0 --out " + (dir_ / "run").string()), 1)
+      << err();
+  EXPECT_NE(err().find("aborted: tour/visit/work: failed: scripted failure on run 2"),
+            std::string::npos)
+      << err();
+  const Json report = Json::parse(read_text(dir_ / "run" / "report.json"));
+  EXPECT_EQ(report.at("outcome").as_string(), "aborted");
+  EXPECT_EQ(report.at("targets").as_array()[1].at("outcome").as_string(), "failed");
+  // Every device was brought to a safe state.
+  EXPECT_NE(read_text(dir_ / "run" / "test_drivers.log").find("test_projector safe_stop"),
+            std::string::npos);
+}
+
+TEST_F(Command, InvalidMachineExitsTwoWithEveryProblemAndMovesNothing) {
+  std::string machine = kLinearMachine;
+  machine.replace(machine.find("behaviour: scripted\n"), 19, "behaviour: scriptd");
+  machine.replace(machine.find("off_screen: skip_target"), 23, "off_screen: skp_target");
+  const fs::path mission = write_mission(machine);
+  const std::string prefix = mission.string() + ":";
+  EXPECT_EQ(projtour("validate " + mission.string()), 2);
+  EXPECT_NE(err().find(prefix + "28:22: machine.states.visit.states.work.behaviour: unknown "
+                                "behaviour kind \"scriptd\"; did you mean \"scripted\"?"),
+            std::string::npos)
+      << err();
+  EXPECT_NE(err().find(prefix + "35:45: machine.states.visit.states.show.on.off_screen: "
+                                "transition to unknown state \"skp_target\"; did you mean "
+                                "\"skip_target\"?"),
+            std::string::npos)
+      << err();
+  EXPECT_EQ(projtour("run " + mission.string() + " --out " + (dir_ / "run").string()), 2);
+  EXPECT_FALSE(fs::exists(dir_ / "run" / "events.jsonl"));
+  EXPECT_NE(err().find("nothing moved"), std::string::npos);
+}
+
+TEST_F(Command, ValidateAcceptsAGoodMission) {
+  EXPECT_EQ(projtour("validate " + write_mission(kLinearMachine).string()), 0) << err();
+  EXPECT_NE(out().find("ok (3 targets, 2 behaviour states)"), std::string::npos) << out();
+}
+
+TEST_F(Command, UsageErrorsExitTwo) {
+  EXPECT_EQ(projtour("run"), 2);
+  EXPECT_EQ(projtour("run x.yaml --sped 3"), 2);
+  EXPECT_NE(err().find("unknown option --sped"), std::string::npos);
+  EXPECT_EQ(projtour("fly"), 2);
+}
+
+TEST_F(Command, GraphPrintsDotWithClusters) {
+  ASSERT_EQ(projtour("graph " + kSource + "/missions/scripted_tour.yaml"), 0) << err();
+  const std::string dot = out();
+  EXPECT_EQ(dot.rfind("digraph machine {", 0), 0u);
+  EXPECT_NE(dot.find("subgraph \"cluster_tour/visit\""), std::string::npos);
+  EXPECT_NE(dot.find("\"tour/visit/navigate\" -> \"tour/visit/aim\" [label=\"succeeded\"]"),
+            std::string::npos);
+}
+
+TEST_F(Command, PluginsListsTheScriptedKinds) {
+  ASSERT_EQ(projtour("plugins"), 0) << err();
+  EXPECT_NE(out().find("scripted_align (behaviour)"), std::string::npos);
+  EXPECT_NE(out().find("test_projector (driver)"), std::string::npos);
+}
+
+TEST_F(Command, SameSeedSameEventsAndReport) {
+  const fs::path mission = write_mission(kLinearMachine);
+  for (const char* name : {"a", "b"}) {
+    ASSERT_EQ(
+        projtour("run " + mission.string() + " --seed 5 --speed 0 --out " + (dir_ / name).string()),
+        3);
+  }
+  EXPECT_EQ(read_text(dir_ / "a" / "events.jsonl"), read_text(dir_ / "b" / "events.jsonl"));
+  Json a = Json::parse(read_text(dir_ / "a" / "report.json"));
+  Json b = Json::parse(read_text(dir_ / "b" / "report.json"));
+  EXPECT_EQ(a.at("seed").as_int(), 5);
+  a.set("timing", Json());
+  b.set("timing", Json());
+  EXPECT_EQ(a.dump(), b.dump());
+}
+
+// SIGINT in the middle of the second target: safe stop, checkpoint, report, exit 130; then
+// --resume finishes the tour without revisiting the first target.
+TEST_F(Command, InterruptThenResume) {
+  const fs::path run = dir_ / "run";
+  const std::string mission = kSource + "/missions/scripted_tour.yaml";
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const std::string out = (dir_ / "stdout1.txt").string();
+    const std::string err = (dir_ / "stderr1.txt").string();
+    std::freopen(out.c_str(), "w", stdout);
+    std::freopen(err.c_str(), "w", stderr);
+    ::execl(kProjtour.c_str(), kProjtour.c_str(), "run", mission.c_str(), "--speed", "8", "--out",
+            run.c_str(), "--plugin-path", kPluginPath.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (read_text(run / "events.jsonl")
+                 .find("\"state\": \"tour/visit/aim\", \"target\": "
+                       "\"pillar\"") == std::string::npos &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ::kill(child, SIGINT);
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 130) << read_text(dir_ / "stderr1.txt");
+
+  const Json checkpoint = Json::parse(read_text(run / "checkpoint.json"));
+  ASSERT_EQ(checkpoint.at("done").as_array().size(), 1u);
+  EXPECT_EQ(checkpoint.at("done").as_array()[0].at("id").as_string(), "rabbit");
+  EXPECT_EQ(checkpoint.at("current_target").as_string(), "pillar");
+  EXPECT_EQ(Json::parse(read_text(run / "report.json")).at("outcome").as_string(), "interrupted");
+  const std::string safe_stops = read_text(run / "test_drivers.log");
+  for (const char* d : {"test_base", "test_projector", "test_pan_tilt"}) {
+    EXPECT_NE(safe_stops.find(std::string(d) + " safe_stop"), std::string::npos) << d;
+  }
+  const std::size_t events_before = read_jsonl(run / "events.jsonl").size();
+
+  ASSERT_EQ(projtour("run " + mission + " --resume --speed 0 --out " + run.string()), 0) << err();
+  const auto events = read_jsonl(run / "events.jsonl");
+  ASSERT_GT(events.size(), events_before);
+  const Json& first_new = events[events_before + 1];  // after "enter tour"
+  EXPECT_EQ(first_new.at("state").as_string(), "tour/visit");
+  EXPECT_EQ(first_new.at("target").as_string(), "pillar");
+  EXPECT_EQ(events[events_before + 2].at("state").as_string(), "tour/visit/navigate");
+  EXPECT_GE(events[events_before].at("t").as_double(), checkpoint.at("mission_s").as_double());
+  for (std::size_t i = events_before; i < events.size(); ++i) {
+    ASSERT_TRUE(events[i].at("target").is_null() || events[i].at("target").as_string() != "rabbit");
+  }
+  const Json report = Json::parse(read_text(run / "report.json"));
+  EXPECT_EQ(report.at("outcome").as_string(), "completed");
+  EXPECT_EQ(report.at("targets").as_array().size(), 3u);
+}
+
+TEST_F(Command, ResumeWithoutCheckpointIsInvalidInput) {
+  EXPECT_EQ(projtour("run " + kSource + "/missions/scripted_tour.yaml --resume --out " +
+                     (dir_ / "none").string()),
+            2);
+  EXPECT_NE(err().find("cannot resume"), std::string::npos) << err();
+}
+
+}  // namespace
+}  // namespace projtour

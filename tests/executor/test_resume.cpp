@@ -1,0 +1,114 @@
+// Interrupt a tour in each step of the second target, write the checkpoint, resume from it.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "executor_harness.hpp"
+#include "projtour_executor/report.hpp"
+
+namespace projtour::testing {
+namespace {
+
+const std::vector<std::string> kTourEnd = {"outcome visit done", "transition visit done -> done",
+                                           "enter done",         "exit done",
+                                           "exit tour",          "outcome tour done"};
+
+class ResumeAfterInterruption : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(ResumeAfterInterruption, RestartsTheInterruptedTargetFromNavigate) {
+  const std::string step = GetParam();
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("projtour_resume_" + step + "_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+
+  Checkpoint checkpoint;
+  {
+    Harness first;
+    first.script(step, "succeeded", 5);  // long enough to be interrupted inside
+    first.load_default();
+    first.build();
+    ASSERT_TRUE(first.step_until("visit/" + step, "pillar"));
+    first.executor->step();
+    first.executor->request_cancel();
+    ASSERT_EQ(first.run(), TourOutcome::interrupted);
+    const auto lines = first.recorder.lines();
+    ASSERT_EQ(lines.back(), "exit tour");
+    ASSERT_EQ(lines[lines.size() - 4], "outcome visit/" + step + " cancelled @pillar");
+    checkpoint.mission = first.mission.name;
+    checkpoint.seed = 7;
+    checkpoint.mission_s = first.clock.now_s();
+    checkpoint.done = first.executor->records();
+    checkpoint.current_target = "pillar";
+    write_file_atomically(dir / "checkpoint.json", checkpoint_to_json(checkpoint).dump(2));
+  }
+  ASSERT_EQ(checkpoint.done.size(), 1u);
+  EXPECT_EQ(checkpoint.done[0].id, "rabbit");
+
+  Harness second;
+  const Checkpoint read = read_checkpoint(dir / "checkpoint.json", second.mission);
+  EXPECT_EQ(read.seed, 7u);
+  EXPECT_EQ(read.current_target, std::optional<std::string>("pillar"));
+  EXPECT_DOUBLE_EQ(read.mission_s, checkpoint.mission_s);
+  second.clock.set(read.mission_s);
+  second.load_default();
+  second.build();
+  second.executor->restore(read.done, std::size_t{1});
+  EXPECT_EQ(second.run(), TourOutcome::completed);
+  ASSERT_SEQUENCE(second.recorder,
+                  seq({{"enter tour"}, happy_visit("pillar"), happy_visit("sign"), kTourEnd}));
+  ASSERT_EQ(second.executor->records().size(), 3u);
+  EXPECT_EQ(second.executor->records()[0].id, "rabbit");
+  EXPECT_GT(second.recorder.events.front().t_s, 0.0);  // mission time carries on
+  std::filesystem::remove_all(dir);
+}
+
+INSTANTIATE_TEST_SUITE_P(EachStep, ResumeAfterInterruption,
+                         ::testing::Values("navigate", "aim", "capture", "align", "project",
+                                           "next"));
+
+TEST(Resume, EverythingDoneFinishesAtOnce) {
+  Harness h({"rabbit"});
+  h.load_default();
+  h.build();
+  TargetRecord done;
+  done.index = 0;
+  done.id = "rabbit";
+  done.outcome = "projected";
+  h.executor->restore({done}, std::nullopt);
+  EXPECT_EQ(h.run(), TourOutcome::completed);
+  ASSERT_SEQUENCE(h.recorder, seq({{"enter tour"}, kTourEnd}));
+}
+
+TEST(Resume, CheckpointOfAnotherMissionIsRefused) {
+  const auto file = std::filesystem::temp_directory_path() /
+                    ("projtour_ckpt_" + std::to_string(::getpid()) + ".json");
+  Checkpoint c;
+  c.mission = "elsewhere";
+  write_file_atomically(file, checkpoint_to_json(c).dump());
+  Harness h;
+  try {
+    read_checkpoint(file, h.mission);
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("written by mission \"elsewhere\""), std::string::npos);
+  }
+  std::filesystem::remove(file);
+}
+
+TEST(Resume, SkippedRecordsKeepTheirReasonThroughTheCheckpoint) {
+  TargetRecord r;
+  r.index = 2;
+  r.id = "sign";
+  r.outcome = "skipped";
+  r.reason = "poor_fit: inliers 0.2";
+  r.retries = 3;
+  r.measurements.set("projected_s", 0.0);
+  const TargetRecord back = TargetRecord::from_json(Json::parse(r.to_json().dump()), 2);
+  EXPECT_EQ(back.id, "sign");
+  EXPECT_EQ(back.reason, r.reason);
+  EXPECT_EQ(back.retries, 3);
+  EXPECT_EQ(back.measurements.dump(), r.measurements.dump());
+}
+
+}  // namespace
+}  // namespace projtour::testing
