@@ -67,6 +67,8 @@ std::string closest_match(const std::string& word, const std::vector<std::string
   std::size_t best_distance = std::max<std::size_t>(2, word.size() / 3) + 1;
   for (const auto& c : candidates) {
     const std::size_t d = edit_distance(word, c);
+    // A suggestion that rewrites most of a short word is noise ("<<" -> "x").
+    if (d >= word.size() || d >= c.size()) continue;
     if (d < best_distance) {
       best_distance = d;
       best = c;

@@ -13,6 +13,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "projtour/path_planner.hpp"
+
 namespace projtour {
 
 struct Localizer::Impl {
@@ -20,7 +22,42 @@ struct Localizer::Impl {
   mrpt::slam::CMonteCarloLocalization2D pdf;
   mrpt::bayes::CParticleFilter filter;
   mrpt::obs::CActionRobotMovement2D::TMotionModelOptions motion;
+  std::unique_ptr<InflatedGrid> walls;  // clearance 0 radius: distance to the nearest obstacle
+  double fit = 1.0;
 };
+
+namespace {
+
+// Endpoints within this of an obstacle count as fitting the map.
+constexpr double kFitDistanceM = 0.2;
+constexpr double kFitSmoothing = 0.3;  // weight of the newest scan
+constexpr std::size_t kFitRays = 60;
+
+double scan_fit_at(const InflatedGrid& walls, const Pose2D& pose,
+                   const mrpt::obs::CObservation2DRangeScan& scan) {
+  const std::size_t n = scan.getScanSize();
+  if (n < 2) return 1.0;
+  const Pose2D sensor =
+      pose_compose(pose, Pose2D{scan.sensorPose.x(), scan.sensorPose.y(), scan.sensorPose.yaw()});
+  const std::size_t step = std::max<std::size_t>(1, n / kFitRays);
+  std::size_t valid = 0, fitting = 0;
+  for (std::size_t i = 0; i < n; i += step) {
+    if (!scan.getScanRangeValidity(i)) continue;
+    const double a = (scan.rightToLeft ? 1.0 : -1.0) *
+                     (-0.5 * scan.aperture + i * scan.aperture / static_cast<double>(n - 1));
+    const double r = scan.getScanRange(i);
+    const Pose2D end = pose_compose(sensor, Pose2D{r * std::cos(a), r * std::sin(a), 0.0});
+    ++valid;
+    int cx = 0, cy = 0;
+    if (walls.cell_of({end.x_m, end.y_m}, cx, cy) &&
+        walls.clearance_cell_m(cx, cy) < kFitDistanceM) {
+      ++fitting;
+    }
+  }
+  return valid == 0 ? 1.0 : static_cast<double>(fitting) / valid;
+}
+
+}  // namespace
 
 Localizer::Localizer(const mrpt::maps::COccupancyGridMap2D& map, const LocalizerOptions& options,
                      std::uint64_t seed)
@@ -37,6 +74,7 @@ Localizer::Localizer(const mrpt::maps::COccupancyGridMap2D& map, const Localizer
   likelihood.enableLikelihoodCache = true;
 
   impl_->pdf.options.metricMap = impl_->map;
+  impl_->walls = std::make_unique<InflatedGrid>(map, 0.0);
   auto& pf = impl_->filter.m_options;
   pf.PF_algorithm = mrpt::bayes::CParticleFilter::pfStandardProposal;
   pf.resamplingMethod = mrpt::bayes::CParticleFilter::prSystematic;
@@ -61,6 +99,7 @@ void Localizer::reset(const Pose2D& guess) {
                           guess.yaw_rad - deg_to_rad(options_.init_spread_deg),
                           guess.yaw_rad + deg_to_rad(options_.init_spread_deg),
                           std::max(1, options_.particles));
+  impl_->fit = 1.0;
 }
 
 void Localizer::widen(double spread_m, double spread_rad) {
@@ -71,6 +110,8 @@ void Localizer::widen(double spread_m, double spread_rad) {
     particle.d.phi = wrap_angle_rad(particle.d.phi + random.drawUniform(-spread_rad, spread_rad));
     particle.log_w = 0.0;
   }
+  // The fit said "lost"; give the widened cloud a fresh start.
+  impl_->fit = 1.0;
 }
 
 std::shared_ptr<mrpt::obs::CObservation2DRangeScan> Localizer::to_mrpt(const LaserScan& scan) {
@@ -113,6 +154,12 @@ void Localizer::update(const Pose2D& odometry_increment,
   mrpt::obs::CSensoryFrame frame;
   frame.insert(std::make_shared<mrpt::obs::CObservation2DRangeScan>(scan));
   impl_->filter.executeOn(impl_->pdf, &actions, &frame);
+  const double fit = scan_fit_at(*impl_->walls, estimate().mean, scan);
+  impl_->fit = (1.0 - kFitSmoothing) * impl_->fit + kFitSmoothing * fit;
+}
+
+double Localizer::scan_fit() const {
+  return impl_->fit;
 }
 
 PoseEstimate2D Localizer::estimate() const {
@@ -128,7 +175,8 @@ PoseEstimate2D Localizer::estimate() const {
 bool Localizer::converged() const {
   const PoseEstimate2D e = estimate();
   return position_std_m(e) < options_.converged_std_m &&
-         yaw_std_rad(e) < deg_to_rad(options_.converged_std_deg);
+         yaw_std_rad(e) < deg_to_rad(options_.converged_std_deg) &&
+         impl_->fit >= options_.converged_min_fit;
 }
 
 std::size_t Localizer::particle_count() const {

@@ -149,7 +149,8 @@ std::string with_unit(std::optional<double> v, int precision, const std::string&
 }
 
 // Every leaf of `j` as "a.b" -> value text, for fields this page has no dedicated row for.
-void flatten(const Json& j, const std::string& prefix, std::vector<std::pair<std::string, std::string>>& out) {
+void flatten(const Json& j, const std::string& prefix,
+             std::vector<std::pair<std::string, std::string>>& out) {
   if (j.is_object()) {
     for (const auto& kv : j.as_object()) {
       flatten(kv.second, prefix.empty() ? kv.first : prefix + "." + kv.first, out);
@@ -159,11 +160,16 @@ void flatten(const Json& j, const std::string& prefix, std::vector<std::pair<std
   }
 }
 
-const std::set<std::string> kKnownTargetFields = {
-    "id",          "outcome",         "reason",
-    "retries",     "projected_s",     "align",
-    "localization_error", "target_pose_error", "projection_error_mm",
-    "projection_error_px"};
+const std::set<std::string> kKnownTargetFields = {"id",
+                                                  "outcome",
+                                                  "reason",
+                                                  "retries",
+                                                  "projected_s",
+                                                  "align",
+                                                  "localization_error",
+                                                  "target_pose_error",
+                                                  "projection_error_mm",
+                                                  "projection_error_px"};
 
 void target_figures(std::ostringstream& h, const Json& t) {
   std::vector<std::pair<std::string, std::string>> rows;  // label, HTML
@@ -171,31 +177,32 @@ void target_figures(std::ostringstream& h, const Json& t) {
   if (const std::string reason = text(t, {"reason"}); !reason.empty()) {
     rows.emplace_back("reason", html_escape(reason));
   }
-  if (at_path(t, {"retries"}) != nullptr) rows.emplace_back("retries", html_escape(text(t, {"retries"})));
+  if (at_path(t, {"retries"}) != nullptr)
+    rows.emplace_back("retries", html_escape(text(t, {"retries"})));
   if (auto s = number(t, {"projected_s"})) rows.emplace_back("projected for", fixed(*s, 1) + " s");
   if (at_path(t, {"align"}) != nullptr) {
     const auto iterations = number(t, {"align", "iterations"});
     const auto inliers = number(t, {"align", "inlier_fraction"});
-    rows.emplace_back(
-        "alignment",
-        joined({html_escape(text(t, {"align", "method"})),
-                with_unit(number(t, {"align", "time_ms"}), 1, " ms"),
-                iterations ? fixed(*iterations, 0) + " iterations" : "",
-                inliers ? "inlier fraction " + fixed(*inliers, 3) : "",
-                with_unit(number(t, {"align", "rmse_mm"}), 2, " mm RMSE")}));
+    rows.emplace_back("alignment",
+                      joined({html_escape(text(t, {"align", "method"})),
+                              with_unit(number(t, {"align", "time_ms"}), 1, " ms"),
+                              iterations ? fixed(*iterations, 0) + " iterations" : "",
+                              inliers ? "inlier fraction " + fixed(*inliers, 3) : "",
+                              with_unit(number(t, {"align", "rmse_mm"}), 2, " mm RMSE")}));
   }
   if (at_path(t, {"localization_error"}) != nullptr) {
-    rows.emplace_back("localization error",
-                      joined({with_unit(number(t, {"localization_error", "trans_m"}), 3, " m"),
-                              with_unit(number(t, {"localization_error", "rot_deg"}), 2, "&deg;")}));
+    rows.emplace_back(
+        "localization error",
+        joined({with_unit(number(t, {"localization_error", "trans_m"}), 3, " m"),
+                with_unit(number(t, {"localization_error", "rot_deg"}), 2, "&deg;")}));
   }
   if (at_path(t, {"target_pose_error"}) != nullptr) {
     rows.emplace_back("target pose error",
                       joined({with_unit(number(t, {"target_pose_error", "trans_mm"}), 1, " mm"),
                               with_unit(number(t, {"target_pose_error", "rot_deg"}), 2, "&deg;")}));
   }
-  for (const auto& [key, label] : {std::pair<const char*, const char*>{"before_align", "before"},
-                                   {"after_align", "after"}}) {
+  for (const auto& [key, label] :
+       {std::pair<const char*, const char*>{"before_align", "before"}, {"after_align", "after"}}) {
     const auto mm = number(t, {"projection_error_mm", key});
     const auto px = number(t, {"projection_error_px", key});
     if (mm || px) {

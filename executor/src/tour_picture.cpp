@@ -12,7 +12,7 @@ namespace projtour {
 
 namespace {
 
-constexpr double kMarginM = 2.0;       // room around the toured area for markers and labels
+constexpr double kMarginM = 2.0;  // room around the toured area for markers and labels
 constexpr double kMaxLongSidePx = 1600.0;
 constexpr double kMaxPxPerCell = 16.0;  // a tiny tour is not blown up beyond readability
 constexpr int kMinCanvasWidthPx = 360;  // the legend needs this much even for a narrow crop
@@ -20,7 +20,9 @@ constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
 constexpr int kShift = 3;  // sub-pixel bits for cv drawing, so thin lines stay smooth
 constexpr double kSubPixel = 1 << kShift;
 
-cv::Scalar bgr(const RgbColour& c) { return cv::Scalar(c.b, c.g, c.r); }
+cv::Scalar bgr(const RgbColour& c) {
+  return cv::Scalar(c.b, c.g, c.r);
+}
 
 // The cropped window of the grid and how it maps to pixels.
 struct View {
@@ -123,7 +125,8 @@ void draw_label(cv::Mat& img, const std::string& text, cv::Point origin, double 
 void draw_pose_marker(cv::Mat& img, const View& v, const Pose2D& pose, const cv::Scalar& fill,
                       int radius_px, int arrow_px) {
   const cv::Point2d c = v.to_px(pose.x_m, pose.y_m);
-  const cv::Point2d tip = c + cv::Point2d(std::cos(pose.yaw_rad), -std::sin(pose.yaw_rad)) * arrow_px;
+  const cv::Point2d tip =
+      c + cv::Point2d(std::cos(pose.yaw_rad), -std::sin(pose.yaw_rad)) * arrow_px;
   const cv::Point ci(static_cast<int>(std::lround(c.x)), static_cast<int>(std::lround(c.y)));
   const cv::Point ti(static_cast<int>(std::lround(tip.x)), static_cast<int>(std::lround(tip.y)));
   cv::arrowedLine(img, ci, ti, cv::Scalar(0, 0, 0), 4, cv::LINE_AA, 0, 0.35);
@@ -235,8 +238,9 @@ cv::Mat render_tour_picture(const TourPictureInput& input) {
   const double label_scale = v.width_px > 900 ? 0.6 : 0.5;
   draw_pose_marker(img, v, input.start, bgr(kStartColour), radius_px, arrow_px);
   const cv::Point2d start_px = v.to_px(input.start.x_m, input.start.y_m);
-  draw_label(img, "start", cv::Point(static_cast<int>(start_px.x) + radius_px + 4,
-                                     static_cast<int>(start_px.y) + radius_px + 14),
+  draw_label(img, "start",
+             cv::Point(static_cast<int>(start_px.x) + radius_px + 4,
+                       static_cast<int>(start_px.y) + radius_px + 14),
              label_scale, cv::Scalar(0, 0, 0));
   for (const auto& t : input.targets) {
     draw_pose_marker(img, v, t.pose, bgr(outcome_colour(t.outcome)), radius_px, arrow_px);
@@ -245,10 +249,10 @@ cv::Mat render_tour_picture(const TourPictureInput& input) {
   for (const auto& t : input.targets) {
     const cv::Point2d c = v.to_px(t.pose.x_m, t.pose.y_m);
     const std::string text = t.id + " (" + (t.outcome.empty() ? "not visited" : t.outcome) + ")";
-    draw_label(img, text,
-               cv::Point(static_cast<int>(c.x) + radius_px + 4,
-                         static_cast<int>(c.y) - radius_px - 4),
-               label_scale, cv::Scalar(0, 0, 0));
+    draw_label(
+        img, text,
+        cv::Point(static_cast<int>(c.x) + radius_px + 4, static_cast<int>(c.y) - radius_px - 4),
+        label_scale, cv::Scalar(0, 0, 0));
   }
 
   // Legend strip.

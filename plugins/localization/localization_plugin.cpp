@@ -25,6 +25,7 @@ LocalizerOptions options_from(const Params& p) {
   o.lf_decimation = static_cast<int>(p.integer("lf_decimation"));
   o.converged_std_m = p.number("converged_std_m");
   o.converged_std_deg = p.number("converged_std_deg");
+  o.converged_min_fit = p.number("converged_min_fit");
   return o;
 }
 
@@ -127,6 +128,8 @@ const projtour_param_desc kParams[] = {
     {"update_every_scans", "integer", "5", "filter update at least every N scans at rest"},
     {"converged_std_m", "number", "0.15", "converged below this position standard deviation"},
     {"converged_std_deg", "number", "5", "converged below this heading standard deviation"},
+    {"converged_min_fit", "number", "0.5",
+     "and while this share of scan endpoints lands within 0.2 m of the map's walls"},
     {"widen_yaw_deg", "number", "30", "heading spread added when asked to widen the cloud"},
 };
 

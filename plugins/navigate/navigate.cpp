@@ -43,6 +43,7 @@ Navigate::Navigate(const Params& params, const RunContext& run)
       blocked_s_(params.number("blocked_s")),
       timeout_s_(params.number("timeout_s")),
       lost_std_m_(params.number("lost_std_m")),
+      lost_unconverged_s_(params.number("lost_unconverged_s")),
       obstacle_lookahead_m_(params.number("obstacle_lookahead_m")) {
   if (!run.map) throw std::runtime_error("navigate needs the mission's map");
   const double radius_m = run.mission != nullptr ? run.mission->robot.base.radius_m : 0.35;
@@ -75,6 +76,7 @@ void Navigate::start(Context& ctx) {
   start_s_ = ctx.now_s();
   last_progress_s_ = start_s_;
   last_replan_s_ = -1e9;
+  last_converged_s_ = start_s_;
   best_remaining_m_ = std::numeric_limits<double>::infinity();
 }
 
@@ -168,6 +170,14 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
     return Outcome{"lost", "localization standard deviation " +
                                std::to_string(position_std_m(*estimate)) + " m exceeds " +
                                std::to_string(lost_std_m_) + " m"};
+  }
+  // A tight cloud whose scans no longer fit the map is as lost as a wide one.
+  if (ctx.blackboard().get<bool>(keys::kLocalizationConverged).value_or(true)) {
+    last_converged_s_ = now_s;
+  } else if (now_s - last_converged_s_ > lost_unconverged_s_) {
+    command(ctx, 0, 0);
+    return Outcome{"lost",
+                   "localization not converged for " + std::to_string(lost_unconverged_s_) + " s"};
   }
   if (now_s - start_s_ > timeout_s_) {
     command(ctx, 0, 0);

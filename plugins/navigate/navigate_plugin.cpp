@@ -9,7 +9,7 @@ int validate_navigate(const void* raw, char* error, size_t error_size) {
   const Params& p = *static_cast<const Params*>(raw);
   std::string why;
   for (const char* name : {"tolerance_m", "tolerance_deg", "lookahead_m", "blocked_s", "timeout_s",
-                           "lost_std_m", "obstacle_lookahead_m"}) {
+                           "lost_std_m", "lost_unconverged_s", "obstacle_lookahead_m"}) {
     if (!(p.number(name) > 0.0)) {
       why = std::string(name) + ": expected a positive number";
       break;
@@ -29,6 +29,8 @@ const projtour_param_desc kNavigateParams[] = {
     {"blocked_s", "number", "15", "blocked after this long without progress"},
     {"timeout_s", "number", "600", "give up after this long"},
     {"lost_std_m", "number", "0.5", "lost when the position standard deviation exceeds this"},
+    {"lost_unconverged_s", "number", "10",
+     "lost when localization has not been converged (scans off the map) for this long"},
     {"obstacle_lookahead_m", "number", "1.5", "look for obstacles this far along the path"},
 };
 const char* const kNavigateOutcomes[] = {"succeeded", "unreachable", "blocked", "timeout", "lost"};

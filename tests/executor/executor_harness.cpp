@@ -97,9 +97,9 @@ Harness::Harness(std::vector<std::string> target_ids) {
     t.id = id;
     mission.targets.push_back(t);
   }
-  run.mission = &mission;
-  run.blackboard = &blackboard;
-  run.clock = &clock;
+  run_context.mission = &mission;
+  run_context.blackboard = &blackboard;
+  run_context.clock = &clock;
   for (const auto& [kind, outcomes] : tour_kinds()) {
     // Tour kinds take their script from the harness (the default machine gives no params);
     // "scripted" reads its params from the machine like the plugin does.
@@ -148,7 +148,7 @@ void Harness::load(const std::string& yaml) {
 }
 
 void Harness::build(ExecutorOptions options) {
-  behaviours_ = create_behaviours(*machine, catalog, run);
+  behaviours_ = create_behaviours(*machine, catalog, run_context);
   executor = std::make_unique<Executor>(*machine, behaviours_, std::vector<ServiceInstance>{}, run,
                                         clock, options);
   executor->add_observer(&recorder);

@@ -64,7 +64,7 @@ class Harness {
   MissionSpec mission;
   Blackboard blackboard;
   SteppedClock clock;
-  RunContext run;
+  RunContext run_context;
   std::optional<Machine> machine;
   std::unique_ptr<Executor> executor;
   Recorder recorder;

@@ -481,9 +481,12 @@ TEST(Transitions, EventsAreWellFormedJson) {
     ASSERT_TRUE(type == "enter" || type == "exit" || type == "outcome" || type == "transition");
     ASSERT_TRUE(j.at("state").as_string().rfind("tour", 0) == 0);
     ASSERT_TRUE(j.at("target").is_null() || j.at("target").as_string() == "rabbit");
-    if (type == "transition") ASSERT_FALSE(j.at("to").as_string().empty());
-    if (type == "outcome" || type == "transition")
+    if (type == "transition") {
+      ASSERT_FALSE(j.at("to").as_string().empty());
+    }
+    if (type == "outcome" || type == "transition") {
       ASSERT_FALSE(j.at("outcome").as_string().empty());
+    }
   }
 }
 

@@ -199,6 +199,18 @@ TEST(NavigateOutcomes, LostWhenTheParticleCloudIsSpreadOut) {
   EXPECT_EQ(outcome->name, "lost");
 }
 
+TEST(NavigateOutcomes, LostWhenTheRobotIsCarriedAwayAndScansStopFitting) {
+  Rig rig(kDemoMap, {22.0, -5.0, -kPi / 2}, 8);
+  rig.idle(1.0);
+  rig.world().truth.x_m += 0.6;  // kidnapped: no odometry of it
+  Params params = rig.defaults("navigate");
+  params.set("lost_unconverged_s", 3.0);
+  const TargetSpec target = target_for_goal("t", {22.0, -20.0, -kPi / 2});
+  const auto outcome = rig.run("navigate", params, &target, 60.0);
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_EQ(outcome->name, "lost") << outcome->message;
+}
+
 TEST(Relocalize, RecoversAfterTheRobotIsDisplacedByHalfAMetre) {
   const Pose2D start{22.0, -5.0, -kPi / 2};
   Rig rig(kDemoMap, start, 5);
@@ -206,8 +218,10 @@ TEST(Relocalize, RecoversAfterTheRobotIsDisplacedByHalfAMetre) {
   ASSERT_LT(distance_m(rig.estimate().mean, rig.truth()), 0.1);
   // Kidnap: the base is carried 0.5 m sideways without its wheels turning.
   rig.world().truth.x_m += 0.5;
-  rig.idle(1.0);
+  rig.idle(2.0);
   ASSERT_GT(distance_m(rig.estimate().mean, rig.truth()), 0.3);
+  // The cloud is still tight, but the scans no longer fit the map.
+  EXPECT_FALSE(rig.blackboard().require<bool>(keys::kLocalizationConverged));
   const auto outcome = rig.run("relocalize", rig.defaults("relocalize"), nullptr, 60.0);
   ASSERT_TRUE(outcome.has_value());
   EXPECT_EQ(outcome->name, "succeeded") << outcome->message;

@@ -232,25 +232,31 @@ TEST(SimCamera, SeesTheSignAtItsDistanceDeterministically) {
 }
 
 TEST(SimFaults, TargetMissingAndOccluder) {
-  Rig plain(1, {2.0, 0.0, 0.0});
-  plain.make().advance(0.0);
-  const int with_sign = sign_pixels(*plain.sim->grab(), 800, 1200);
-
-  Rig missing(1, {2.0, 0.0, 0.0});
-  missing.world.faults.push_back({"sign", "target_missing", {}, {}});
-  missing.make().advance(0.0);
-  EXPECT_LT(sign_pixels(*missing.sim->grab(), 800, 1200), with_sign / 10);
-
-  Rig occluded(1, {2.0, 0.0, 0.0});
-  occluded.world.faults.push_back(
-      {"sign", "occluder", {{"distance_m", 0.5}, {"width_m", 0.6}}, {}});
-  occluded.make().advance(0.0);
-  const DepthFrame f = *occluded.sim->grab();
-  {int hist[50]={0}; for (auto d: f.depth_mm) hist[std::min(49, d/100)]++;
-  for (int i=0;i<50;i++) if(hist[i]) printf("DBG %d00mm: %d\n", i, hist[i]);}
-  EXPECT_LT(sign_pixels(f, 800, 1200), with_sign / 10);
-  // The board 0.3 m in front of the sign, about 0.65 m from the camera.
-  EXPECT_GT(sign_pixels(f, 550, 800), with_sign / 2);
+  auto frame_with = [](std::vector<FaultSpec> faults) {
+    Rig rig(1, {2.0, 0.0, 0.0});
+    rig.world.faults = std::move(faults);
+    rig.make().advance(0.0);
+    return *rig.sim->grab();
+  };
+  const DepthFrame plain = frame_with({});
+  const DepthFrame missing = frame_with({{"sign", "target_missing", {}, {}}});
+  const DepthFrame occluded = frame_with(
+      {{"sign", "occluder", {{"distance_m", 0.3}, {"width_m", 0.8}, {"height_m", 0.8}}, {}}});
+  // The sign's pixels: about 1 m away where, without the sign, the view goes much deeper.
+  auto sign_like = [&](const DepthFrame& f) {
+    int n = 0;
+    for (std::size_t i = 0; i < f.depth_mm.size(); ++i) {
+      const int d = f.depth_mm[i], behind = missing.depth_mm[i];
+      n += d >= 800 && d <= 1200 && (behind == 0 || behind - d > 300);
+    }
+    return n;
+  };
+  EXPECT_GT(sign_like(plain), 10000);
+  EXPECT_EQ(sign_like(missing), 0);
+  // The hanging board (0.3 m in front of the sign) hides it.
+  EXPECT_LT(sign_like(occluded), sign_like(plain) / 20);
+  EXPECT_GT(sign_pixels(occluded, 400, 700), 100000);
+  EXPECT_LT(sign_pixels(plain, 400, 700), 1000);
 }
 
 TEST(SimFaults, FrameDropoutAndCameraDisconnect) {
@@ -295,7 +301,8 @@ TEST(SimFaults, KidnapOnArrival) {
   const Pose2D truth = pose2d_from_isometry(w.true_T_map_base());
   // The truth jumped by about a metre; the odometry did not notice.
   EXPECT_NEAR(std::hypot(truth.x_m - odo_before.x_m, truth.y_m - odo_before.y_m), 1.0, 0.15);
-  EXPECT_NEAR(w.odometry().pose.x_m, odo_before.x_m, 0.02);
+  // Coasting to a stop adds a few centimetres, not a metre.
+  EXPECT_NEAR(w.odometry().pose.x_m, odo_before.x_m, 0.1);
 }
 
 TEST(SimProjector, LogsShowsAndMotionAndInjectsFailure) {

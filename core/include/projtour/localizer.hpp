@@ -34,9 +34,12 @@ struct LocalizerOptions {
   int lf_decimation = 6;
   // Systematic resampling when the effective sample size falls below this fraction.
   double resample_beta = 0.5;
-  // Converged while the cloud's standard deviations are below these.
+  // Converged while the cloud's standard deviations are below these and the scans still fit
+  // the map: a kidnapped robot keeps a tight cloud in the wrong place, but its scans stop
+  // landing on walls.
   double converged_std_m = 0.15;
   double converged_std_deg = 5.0;
+  double converged_min_fit = 0.5;
 };
 
 class Localizer {
@@ -62,6 +65,9 @@ class Localizer {
 
   PoseEstimate2D estimate() const;
   bool converged() const;
+  // Share of the last scans' endpoints (smoothed over updates) within 0.2 m of an obstacle on
+  // the map, seen from the estimate: 1 when the scans fit the map.
+  double scan_fit() const;
   std::size_t particle_count() const;
 
   // The scan as MRPT sees it (rays spread evenly over the aperture, sensor pose on the base).

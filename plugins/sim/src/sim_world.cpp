@@ -164,7 +164,7 @@ struct SimWorld::Impl {
   // Head.
   JointAngles q_true, q_command, q_measured;
   double settle_s = 0.1;
-  double at_rest_since_s = 0.0;
+  double at_rest_since_s = -1e9;  // at rest since before the mission
   bool head_moving_now = false;
 
   // Camera.

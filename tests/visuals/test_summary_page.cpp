@@ -1,0 +1,235 @@
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <string>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "projtour_executor/summary_page.hpp"
+
+namespace projtour {
+namespace {
+
+namespace fs = std::filesystem;
+
+void write_png(const fs::path& file, const cv::Scalar& colour) {
+  fs::create_directories(file.parent_path());
+  ASSERT_TRUE(cv::imwrite(file.string(), cv::Mat(60, 80, CV_8UC3, colour)));
+}
+
+Json make_report() {
+  Json align = Json::object();
+  align.set("method", "icp_point_to_plane");
+  align.set("time_ms", 45.23);
+  align.set("iterations", 31);
+  align.set("inlier_fraction", 0.9531);
+  align.set("rmse_mm", 1.214);
+  Json loc = Json::object();
+  loc.set("trans_m", 0.0312);
+  loc.set("rot_deg", 0.81);
+  Json pose_err = Json::object();
+  pose_err.set("trans_mm", 4.12);
+  pose_err.set("rot_deg", 0.33);
+  Json mm = Json::object();
+  mm.set("before_align", 25.34);
+  mm.set("after_align", 1.26);
+  Json px = Json::object();
+  px.set("before_align", 31.02);
+  px.set("after_align", 1.54);
+
+  Json rabbit = Json::object();
+  rabbit.set("id", "rabbit");
+  rabbit.set("outcome", "projected");
+  rabbit.set("retries", 1);
+  rabbit.set("projected_s", 10.0);
+  rabbit.set("align", align);
+  rabbit.set("localization_error", loc);
+  rabbit.set("target_pose_error", pose_err);
+  rabbit.set("projection_error_mm", mm);
+  rabbit.set("projection_error_px", px);
+
+  Json pillar = Json::object();
+  pillar.set("id", "pillar #2");  // needs URL encoding in the picture paths
+  pillar.set("outcome", "skipped");
+  pillar.set("reason", "align: poor_fit after 3 retries <inlier fraction 0.21>");
+  pillar.set("retries", 3);
+
+  Json report = Json::object();
+  report.set("mission", "visuals-test");
+  report.set("dry_run", true);
+  report.set("seed", 42);
+  report.set("outcome", "completed_with_skips");
+  Json timing = Json::object();
+  timing.set("wall_s", 12.5);
+  timing.set("mission_s", 187.25);
+  report.set("timing", timing);
+  Json targets = Json::array();
+  targets.push_back(rabbit);
+  targets.push_back(pillar);
+  report.set("targets", targets);
+  return report;
+}
+
+// A run directory as the executor leaves it: report.json, tour.png, all four pictures for the
+// projected target and only the alignment picture for the skipped one.
+class SummaryPageTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    run_dir_ = fs::temp_directory_path() /
+               ("projtour_summary_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::remove_all(run_dir_);
+    fs::create_directories(run_dir_);
+    write_file_atomically(run_dir_ / "report.json", make_report().dump(2));
+    write_png(run_dir_ / "tour.png", {255, 255, 255});
+    for (const char* name : {"alignment.png", "projector.png", "before.png", "after.png"}) {
+      write_png(run_dir_ / "targets" / "rabbit" / name, {0, 128, 255});
+    }
+    write_png(run_dir_ / "targets" / "pillar #2" / "alignment.png", {255, 0, 0});
+  }
+  void TearDown() override { fs::remove_all(run_dir_); }
+
+  std::string write_page() {
+    write_summary_page(read_summary_input(run_dir_), run_dir_);
+    std::ifstream in(run_dir_ / "summary.html");
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }
+
+  fs::path run_dir_;
+};
+
+bool contains(const std::string& haystack, const std::string& needle) {
+  return haystack.find(needle) != std::string::npos;
+}
+
+TEST_F(SummaryPageTest, ShowsTheRunAndEveryTargetsFigures) {
+  const std::string html = write_page();
+  for (const char* expected :
+       {"<h1>visuals-test</h1>", "completed_with_skips", "<td>42</td>", "3 min 07 s", "12.5 s",
+        "1 of 2", "median 1.3 mm, worst 1.3 mm over 1 target", "icp_point_to_plane", "45.2 ms",
+        "31 iterations", "inlier fraction 0.953", "1.21 mm RMSE", "0.031 m", "0.81&deg;", "4.1 mm",
+        "25.3 mm &middot; 31.0 px", "1.3 mm &middot; 1.5 px", "projected for", "10.0 s",
+        // Report text is escaped, never markup.
+        "align: poor_fit after 3 retries &lt;inlier fraction 0.21&gt;", "pillar #2"}) {
+    EXPECT_TRUE(contains(html, expected)) << "missing: " << expected;
+  }
+  EXPECT_FALSE(contains(html, "<inlier")) << "unescaped report text";
+}
+
+TEST_F(SummaryPageTest, LinksOnlyThePicturesOnDiskByRelativePath) {
+  const std::string html = write_page();
+  EXPECT_TRUE(contains(html, "src=\"tour.png\""));
+  for (const char* name : {"alignment.png", "projector.png", "before.png", "after.png"}) {
+    EXPECT_TRUE(contains(html, std::string("src=\"targets/rabbit/") + name + "\"")) << name;
+  }
+  EXPECT_TRUE(contains(html, "src=\"targets/pillar%20%232/alignment.png\""));
+  EXPECT_FALSE(contains(html, "pillar%20%232/projector.png"));
+  EXPECT_FALSE(contains(html, run_dir_.string())) << "the page must move with its directory";
+  EXPECT_FALSE(contains(html, "http")) << "no network";
+}
+
+TEST_F(SummaryPageTest, UnreadableReportNamesTheFile) {
+  std::ofstream(run_dir_ / "report.json") << "{\"mission\": ";
+  try {
+    read_summary_input(run_dir_);
+    FAIL() << "expected an exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_TRUE(contains(e.what(), (run_dir_ / "report.json").string())) << e.what();
+  }
+  EXPECT_THROW(read_summary_input(run_dir_ / "nowhere"), std::runtime_error);
+}
+
+TEST_F(SummaryPageTest, SparseReportStillRenders) {
+  // An aborted run may have no targets and no timing: the page says what it knows.
+  Json report = Json::object();
+  report.set("mission", "aborted-run");
+  report.set("outcome", "aborted");
+  fs::remove(run_dir_ / "tour.png");
+  const std::string html = render_summary_page(SummaryInput{report}, run_dir_);
+  EXPECT_TRUE(contains(html, "aborted-run"));
+  EXPECT_TRUE(contains(html, "0 of 0"));
+  EXPECT_FALSE(contains(html, "<img"));
+}
+
+// --- in a real browser -----------------------------------------------------------------------
+
+std::string chromium_command() {
+  for (const char* candidate : {"/usr/bin/chromium", "/usr/bin/chromium-browser"}) {
+    if (::access(candidate, X_OK) == 0) return candidate;
+  }
+  return "";
+}
+
+struct LoadedImage {
+  std::string src;
+  std::string loaded;  // "1", "0", or "" when the browser never reported
+};
+
+// Opens the page in headless Chromium and reads each <img>'s data-loaded from the final DOM.
+std::vector<LoadedImage> load_in_chromium(const fs::path& html, const fs::path& scratch) {
+  const fs::path profile = scratch / "chromium-profile";
+  fs::create_directories(profile);
+  const std::string cmd =
+      "timeout 60 " + chromium_command() +
+      " --headless --no-sandbox --disable-gpu --disable-quic --no-first-run"
+      " --disable-background-networking --disable-component-update --disable-sync"
+      " --user-data-dir='" +
+      profile.string() + "' --virtual-time-budget=5000 --dump-dom 'file://" + html.string() +
+      "' 2>/dev/null";
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  if (pipe == nullptr) throw std::runtime_error("cannot run " + cmd);
+  std::string dom;
+  char buf[4096];
+  while (std::size_t n = std::fread(buf, 1, sizeof buf, pipe)) dom.append(buf, n);
+  const int status = ::pclose(pipe);
+  fs::remove_all(profile);
+  if (status != 0) throw std::runtime_error("chromium failed (" + std::to_string(status) + ")");
+  std::vector<LoadedImage> images;
+  const std::regex img(R"(<img\b[^>]*>)");
+  const std::regex src(R"re(\bsrc="([^"]*)")re");
+  const std::regex loaded(R"re(\bdata-loaded="([^"]*)")re");
+  for (auto it = std::sregex_iterator(dom.begin(), dom.end(), img); it != std::sregex_iterator();
+       ++it) {
+    const std::string tag = it->str();
+    std::smatch m;
+    LoadedImage image;
+    if (std::regex_search(tag, m, src)) image.src = m[1];
+    if (std::regex_search(tag, m, loaded)) image.loaded = m[1];
+    images.push_back(image);
+  }
+  return images;
+}
+
+TEST_F(SummaryPageTest, EveryImageLoadsInHeadlessChromium) {
+  if (chromium_command().empty())
+    GTEST_SKIP() << "chromium is not installed (apt-get install chromium)";
+  write_page();
+  const auto images = load_in_chromium(run_dir_ / "summary.html", run_dir_);
+  ASSERT_EQ(images.size(), 6u) << "tour.png, four rabbit pictures, one pillar picture";
+  for (const auto& image : images) EXPECT_EQ(image.loaded, "1") << image.src;
+}
+
+TEST_F(SummaryPageTest, HeadlessChromiumCheckDetectsBrokenImages) {
+  if (chromium_command().empty())
+    GTEST_SKIP() << "chromium is not installed (apt-get install chromium)";
+  write_page();
+  // After the page was written: one picture disappears, another is not a PNG any more.
+  fs::remove(run_dir_ / "targets" / "rabbit" / "before.png");
+  std::ofstream(run_dir_ / "targets" / "rabbit" / "after.png", std::ios::trunc) << "not a png";
+  const auto images = load_in_chromium(run_dir_ / "summary.html", run_dir_);
+  ASSERT_EQ(images.size(), 6u);
+  std::vector<std::string> broken;
+  for (const auto& image : images) {
+    if (image.loaded != "1") broken.push_back(image.src);
+  }
+  EXPECT_EQ(broken,
+            (std::vector<std::string>{"targets/rabbit/before.png", "targets/rabbit/after.png"}));
+}
+
+}  // namespace
+}  // namespace projtour
