@@ -7,6 +7,7 @@ packages=(
   libeigen3-dev libyaml-cpp-dev libopencv-dev libpcl-dev libopenni2-dev
   libmrpt-poses-dev libmrpt-maps-dev libmrpt-slam-dev libmrpt-nav-dev libmrpt-obs-dev
   libmrpt-config-dev libmrpt-kinematics-dev libmrpt-hwdrivers-dev mrpt-common
+  chromium
 )
 missing=()
 for p in "${packages[@]}"; do

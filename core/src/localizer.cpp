@@ -13,7 +13,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "projtour/path_planner.hpp"
+#include <opencv2/imgproc.hpp>
 
 namespace projtour {
 
@@ -22,7 +22,10 @@ struct Localizer::Impl {
   mrpt::slam::CMonteCarloLocalization2D pdf;
   mrpt::bayes::CParticleFilter filter;
   mrpt::obs::CActionRobotMovement2D::TMotionModelOptions motion;
-  std::unique_ptr<InflatedGrid> walls;  // clearance 0 radius: distance to the nearest obstacle
+  // Distance from each cell to the nearest occupied one (unknown space does not count: a scan
+  // ending in it does not fit).
+  cv::Mat wall_distance_m;
+  double x_min_m = 0.0, y_min_m = 0.0, resolution_m = 1.0;
   double fit = 1.0;
 };
 
@@ -32,8 +35,15 @@ namespace {
 constexpr double kFitDistanceM = 0.2;
 constexpr double kFitSmoothing = 0.3;  // weight of the newest scan
 constexpr std::size_t kFitRays = 60;
+constexpr float kOccupiedBelow = 0.4f;  // free probability
 
-double scan_fit_at(const InflatedGrid& walls, const Pose2D& pose,
+// The grid's lower-left corner and cell size locate points in `wall_distance_m`.
+struct WallField {
+  const cv::Mat& distance_m;
+  double x_min_m, y_min_m, resolution_m;
+};
+
+double scan_fit_at(const WallField& impl, const Pose2D& pose,
                    const mrpt::obs::CObservation2DRangeScan& scan) {
   const std::size_t n = scan.getScanSize();
   if (n < 2) return 1.0;
@@ -48,9 +58,10 @@ double scan_fit_at(const InflatedGrid& walls, const Pose2D& pose,
     const double r = scan.getScanRange(i);
     const Pose2D end = pose_compose(sensor, Pose2D{r * std::cos(a), r * std::sin(a), 0.0});
     ++valid;
-    int cx = 0, cy = 0;
-    if (walls.cell_of({end.x_m, end.y_m}, cx, cy) &&
-        walls.clearance_cell_m(cx, cy) < kFitDistanceM) {
+    const int cx = static_cast<int>(std::floor((end.x_m - impl.x_min_m) / impl.resolution_m));
+    const int cy = static_cast<int>(std::floor((end.y_m - impl.y_min_m) / impl.resolution_m));
+    if (cx >= 0 && cy >= 0 && cx < impl.distance_m.cols && cy < impl.distance_m.rows &&
+        impl.distance_m.at<float>(cy, cx) < kFitDistanceM) {
       ++fitting;
     }
   }
@@ -74,7 +85,18 @@ Localizer::Localizer(const mrpt::maps::COccupancyGridMap2D& map, const Localizer
   likelihood.enableLikelihoodCache = true;
 
   impl_->pdf.options.metricMap = impl_->map;
-  impl_->walls = std::make_unique<InflatedGrid>(map, 0.0);
+  impl_->x_min_m = map.getXMin();
+  impl_->y_min_m = map.getYMin();
+  impl_->resolution_m = map.getResolution();
+  cv::Mat not_wall(static_cast<int>(map.getSizeY()), static_cast<int>(map.getSizeX()), CV_8UC1);
+  for (int cy = 0; cy < not_wall.rows; ++cy) {
+    for (int cx = 0; cx < not_wall.cols; ++cx) {
+      not_wall.at<std::uint8_t>(cy, cx) = map.getCell(cx, cy) < kOccupiedBelow ? 0 : 255;
+    }
+  }
+  cv::distanceTransform(not_wall, impl_->wall_distance_m, cv::DIST_L2, cv::DIST_MASK_PRECISE,
+                        CV_32F);
+  impl_->wall_distance_m *= impl_->resolution_m;
   auto& pf = impl_->filter.m_options;
   pf.PF_algorithm = mrpt::bayes::CParticleFilter::pfStandardProposal;
   pf.resamplingMethod = mrpt::bayes::CParticleFilter::prSystematic;
@@ -154,7 +176,9 @@ void Localizer::update(const Pose2D& odometry_increment,
   mrpt::obs::CSensoryFrame frame;
   frame.insert(std::make_shared<mrpt::obs::CObservation2DRangeScan>(scan));
   impl_->filter.executeOn(impl_->pdf, &actions, &frame);
-  const double fit = scan_fit_at(*impl_->walls, estimate().mean, scan);
+  const WallField walls{impl_->wall_distance_m, impl_->x_min_m, impl_->y_min_m,
+                        impl_->resolution_m};
+  const double fit = scan_fit_at(walls, estimate().mean, scan);
   impl_->fit = (1.0 - kFitSmoothing) * impl_->fit + kFitSmoothing * fit;
 }
 

@@ -3,13 +3,14 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "projtour/geometry.hpp"
 #include "projtour/registration.hpp"
 
 namespace projtour {
 
 std::size_t OrganizedCloud::valid_count() const {
-  return static_cast<std::size_t>(
-      std::count_if(points.begin(), points.end(), [](const Eigen::Vector3f& p) { return valid(p); }));
+  return static_cast<std::size_t>(std::count_if(points.begin(), points.end(),
+                                                [](const Eigen::Vector3f& p) { return valid(p); }));
 }
 
 namespace {
@@ -89,18 +90,22 @@ OrganizedCloud crop_sphere(const DepthFrame& frame, const Eigen::Vector3d& depth
   const double r = radius_m;
   if (!(r > 0.0) || c.z() + r <= 0.0) return empty_window(frame, depth_to_color_m, 0, 0, 0, 0);
 
-  // The window: bounds of x/z and y/z over the sphere's bounding box (conservative), or the
-  // whole image when the sphere reaches the camera.
+  // The window: the bounding box of the sphere's image. Along each image axis the extremes of
+  // x/z (y/z) are the tangents from the camera to the sphere's disc in the xz (yz) plane; the
+  // whole image when the camera is inside or beside the sphere.
   int u_lo = 0, u_hi = frame.width, v_lo = 0, v_hi = frame.height;
   const PinholeModel& k = frame.intrinsics;
   const double z_near = c.z() - r, z_far = c.z() + r;
-  if (z_near > 1e-3) {
-    auto bound = [&](double lo, double hi) {
-      return std::pair<double, double>(lo / (lo < 0 ? z_near : z_far),
-                                       hi / (hi < 0 ? z_far : z_near));
-    };
-    const auto [xl, xh] = bound(c.x() - r, c.x() + r);
-    const auto [yl, yh] = bound(c.y() - r, c.y() + r);
+  const auto tangents = [r](double a, double z, double& lo, double& hi) {
+    const double d = std::hypot(a, z);
+    if (d <= r * 1.0001) return false;
+    const double centre = std::atan2(a, z), half = std::asin(r / d);
+    if (centre - half <= -kPi / 2 + 1e-3 || centre + half >= kPi / 2 - 1e-3) return false;
+    lo = std::tan(centre - half), hi = std::tan(centre + half);
+    return true;
+  };
+  double xl, xh, yl, yh;
+  if (z_near > 1e-3 && tangents(c.x(), c.z(), xl, xh) && tangents(c.y(), c.z(), yl, yh)) {
     double pu_lo = k.fx * xl + k.cx, pu_hi = k.fx * xh + k.cx;
     double pv_lo = k.fy * yl + k.cy, pv_hi = k.fy * yh + k.cy;
     if (k.has_distortion()) {
@@ -122,23 +127,34 @@ OrganizedCloud crop_sphere(const DepthFrame& frame, const Eigen::Vector3d& depth
     v_hi = std::clamp(static_cast<int>(std::ceil(pv_hi)) + 1, 0, frame.height);
   }
   const int w = std::max(0, u_hi - u_lo), h = std::max(0, v_hi - v_lo);
-  OrganizedCloud cloud = empty_window(frame, depth_to_color_m, u_lo, v_lo, w, h);
+  OrganizedCloud cloud;
+  cloud.intrinsics = frame.intrinsics;
+  cloud.intrinsics.width = frame.width;
+  cloud.intrinsics.height = frame.height;
+  cloud.depth_to_color_m = depth_to_color_m.cast<float>();
+  cloud.u0 = u_lo;
+  cloud.v0 = v_lo;
+  cloud.width = w;
+  cloud.height = h;
+  cloud.points.resize(static_cast<std::size_t>(w) * h);  // every element written below
 
   const RayMaker rays(frame.intrinsics);
   const Eigen::Vector3f cf = c.cast<float>();
   const float r2 = static_cast<float>(r * r);
   const float z_min = static_cast<float>(std::max(0.0, z_near)), z_max = static_cast<float>(z_far);
+  const Eigen::Vector3f none = Eigen::Vector3f::Constant(kNaN);
   for (int j = 0; j < h; ++j) {
     const int v = v_lo + j;
+    const std::uint16_t* depth = &frame.depth_mm[static_cast<std::size_t>(v) * frame.width];
+    Eigen::Vector3f* out = &cloud.points[static_cast<std::size_t>(j) * w];
     for (int i = 0; i < w; ++i) {
       const int u = u_lo + i;
-      const std::uint16_t d = frame.at(u, v);
-      const float z = d * 0.001f;
-      if (d == 0 || z < z_min || z > z_max) continue;  // cheap rejection before the ray
+      const float z = depth[u] * 0.001f;
+      out[i] = none;
+      if (depth[u] == 0 || z < z_min || z > z_max) continue;  // cheap rejection before the ray
       const Eigen::Vector2f ray = rays.ray(u, v);
       const Eigen::Vector3f p(ray.x() * z, ray.y() * z, z);
-      if ((p - cf).squaredNorm() > r2) continue;
-      cloud.points[static_cast<std::size_t>(j) * w + i] = p + cloud.depth_to_color_m;
+      if ((p - cf).squaredNorm() <= r2) out[i] = p + cloud.depth_to_color_m;
     }
   }
   return cloud;

@@ -17,11 +17,8 @@ std::vector<IcpStage> IcpOptions::default_stages() {
   // Coarse levels see the whole target in few pixels, and their window lets a model point find
   // its surface several centimetres away; the fine levels then settle on the noise floor.
   return {
-      {3, 300, 3, 0.15, 8, true},
-      {3, 300, 3, 0.10, 8},
-      {2, 600, 2, 0.05, 8},
-      {1, 1200, 1, 0.02, 6},
-      {0, 2500, 0, 0.01, 5},
+      {3, 250, 2, 0.15, 6, true}, {3, 250, 2, 0.10, 6},  {2, 500, 1, 0.04, 5},
+      {1, 1000, 0, 0.02, 4},      {0, 5000, 0, 0.01, 3},
   };
 }
 
@@ -76,7 +73,8 @@ Level borrow(const OrganizedCloud& scene) {
 }
 
 // Each coarser pixel averages the finer 2x2 block's points near its nearest one, so silhouette
-// edges stay sharp instead of blending foreground and background.
+// edges stay sharp instead of blending foreground and background. `fine_valid` (optional)
+// receives the number of valid fine points.
 Level downsample(const Level& fine, std::size_t* fine_valid = nullptr) {
   Level coarse;
   coarse.scale = fine.scale * 2;
@@ -84,36 +82,47 @@ Level downsample(const Level& fine, std::size_t* fine_valid = nullptr) {
   coarse.v0 = fine.v0 >> 1;
   coarse.width = std::max(0, ((fine.u0 + fine.width + 1) >> 1) - coarse.u0);
   coarse.height = std::max(0, ((fine.v0 + fine.height + 1) >> 1) - coarse.v0);
-  coarse.storage.assign(static_cast<std::size_t>(coarse.width) * coarse.height,
-                        Eigen::Vector3f::Constant(kNaN));
+  coarse.storage.resize(static_cast<std::size_t>(coarse.width) * coarse.height);
   coarse.points = coarse.storage.data();
+  // Fine pixel of the block's top-left child, relative to the fine window (may be -1 when the
+  // fine window starts on an odd pixel).
+  const int fi0 = 2 * coarse.u0 - fine.u0, fj0 = 2 * coarse.v0 - fine.v0;
+  std::size_t valid = 0;
   for (int j = 0; j < coarse.height; ++j) {
+    const int fj = fj0 + 2 * j;
+    const Eigen::Vector3f* rows[2] = {
+        fj >= 0 && fj < fine.height ? fine.points + static_cast<std::size_t>(fj) * fine.width
+                                    : nullptr,
+        fj + 1 >= 0 && fj + 1 < fine.height
+            ? fine.points + static_cast<std::size_t>(fj + 1) * fine.width
+            : nullptr};
+    Eigen::Vector3f* out = coarse.storage.data() + static_cast<std::size_t>(j) * coarse.width;
     for (int i = 0; i < coarse.width; ++i) {
+      const int fi = fi0 + 2 * i;
       const Eigen::Vector3f* block[4];
       int n = 0;
-      float z_min = std::numeric_limits<float>::max();
-      for (int dj = 0; dj < 2; ++dj) {
-        for (int di = 0; di < 2; ++di) {
-          const int fi = 2 * (coarse.u0 + i) + di - fine.u0;
-          const int fj = 2 * (coarse.v0 + j) + dj - fine.v0;
-          if (fi < 0 || fj < 0 || fi >= fine.width || fj >= fine.height) continue;
-          const Eigen::Vector3f& p = fine.at(fi, fj);
-          if (!OrganizedCloud::valid(p)) continue;
-          block[n++] = &p;
-          z_min = std::min(z_min, p.z());
-        }
+      for (const Eigen::Vector3f* row : rows) {
+        if (row == nullptr) continue;
+        if (fi >= 0 && OrganizedCloud::valid(row[fi])) block[n++] = &row[fi];
+        if (fi + 1 < fine.width && OrganizedCloud::valid(row[fi + 1])) block[n++] = &row[fi + 1];
       }
-      if (fine_valid != nullptr) *fine_valid += n;
-      if (n == 0) continue;
+      valid += n;
+      if (n == 0) {
+        out[i] = Eigen::Vector3f::Constant(kNaN);
+        continue;
+      }
+      float z_min = block[0]->z();
+      for (int k = 1; k < n; ++k) z_min = std::min(z_min, block[k]->z());
+      const float z_max = z_min * 1.02f;
       Eigen::Vector3f sum = Eigen::Vector3f::Zero();
       int count = 0;
-      const float tolerance = 0.02f * z_min;
       for (int k = 0; k < n; ++k) {
-        if (block[k]->z() - z_min <= tolerance) sum += *block[k], ++count;
+        if (block[k]->z() <= z_max) sum += *block[k], ++count;
       }
-      coarse.storage[static_cast<std::size_t>(j) * coarse.width + i] = sum / count;
+      out[i] = sum / static_cast<float>(count);
     }
   }
+  if (fine_valid != nullptr) *fine_valid = valid;
   return coarse;
 }
 
@@ -123,24 +132,30 @@ class Projector {
   explicit Projector(const OrganizedCloud& scene)
       : k_(scene.intrinsics),
         distorted_(scene.intrinsics.has_distortion()),
-        origin_(scene.depth_to_color_m) {}
+        origin_(scene.depth_to_color_m),
+        fx_(static_cast<float>(k_.fx)),
+        fy_(static_cast<float>(k_.fy)),
+        cx_(static_cast<float>(k_.cx + 0.5)),
+        cy_(static_cast<float>(k_.cy + 0.5)) {}
   // The depth camera's centre in the camera frame: where view rays start.
   const Eigen::Vector3f& origin() const { return origin_; }
   // Integer pixel at `level` (full-resolution pixel centres map to 2^-level of themselves).
   bool pixel(const Eigen::Vector3f& p_camera, const Level& level, int& i, int& j) const {
     const Eigen::Vector3f p = p_camera - origin_;
     if (p.z() <= 1e-3f) return false;
-    double u, v;
+    float u, v;  // shifted by half a pixel, so truncation is the pixel index
     if (distorted_) {
       const auto px = k_.project(p.cast<double>());
-      u = px->x(), v = px->y();
+      u = static_cast<float>(px->x() + 0.5), v = static_cast<float>(px->y() + 0.5);
     } else {
-      u = k_.fx * p.x() / p.z() + k_.cx;
-      v = k_.fy * p.y() / p.z() + k_.cy;
+      const float inv_z = 1.0f / p.z();
+      u = fx_ * p.x() * inv_z + cx_;
+      v = fy_ * p.y() * inv_z + cy_;
     }
-    const double s = level.scale;
-    i = static_cast<int>(std::floor((u + 0.5) / s)) - level.u0;
-    j = static_cast<int>(std::floor((v + 0.5) / s)) - level.v0;
+    if (!(u >= 0.0f && v >= 0.0f)) return false;  // also rejects NaN
+    const float inv_s = 1.0f / static_cast<float>(level.scale);
+    i = static_cast<int>(u * inv_s) - level.u0;
+    j = static_cast<int>(v * inv_s) - level.v0;
     return i >= 0 && j >= 0 && i < level.width && j < level.height;
   }
 
@@ -148,6 +163,7 @@ class Projector {
   const PinholeModel& k_;
   bool distorted_;
   Eigen::Vector3f origin_;
+  float fx_, fy_, cx_, cy_;
 };
 
 // Scene normal at a pixel from its neighbours `step` pixels away, facing the camera; zero
@@ -218,7 +234,9 @@ Eigen::Isometry3d apply_twist(const Eigen::Matrix<double, 6, 1>& xi, const Eigen
 
 // Scene normals from neighbours this far apart: wide enough at full resolution to see through
 // the sensor noise, adjacent at the coarse levels where averaging already smoothed it.
-int normal_step(const Level& level) { return level.scale == 1 ? 2 : 1; }
+int normal_step(const Level& level) {
+  return level.scale == 1 ? 2 : 1;
+}
 
 // The model's own depth image at 1/4 resolution (every model point facing the camera splatted
 // into its cell), so points hidden behind another part of the model (the ears, the far flank)
@@ -306,8 +324,8 @@ RegistrationResult run_schedule(const IcpModel& model, const std::vector<Level>&
   std::vector<Match> matches;
   for (const IcpStage& stage : options.stages) {
     const Level& level = pyramid[stage.pyramid_level];
-    const std::size_t n_model =
-        std::min<std::size_t>(model.points().size(), static_cast<std::size_t>(stage.max_model_points));
+    const std::size_t n_model = std::min<std::size_t>(
+        model.points().size(), static_cast<std::size_t>(stage.max_model_points));
     const float max_d2 = static_cast<float>(stage.max_distance_m * stage.max_distance_m);
     const double tukey_c = options.tukey_scale * stage.max_distance_m;
     const int step = normal_step(level);
@@ -366,7 +384,8 @@ RegistrationResult run_schedule(const IcpModel& model, const std::vector<Level>&
         break;
       }
       T = apply_twist(xi, T);
-      if (xi.tail<3>().norm() < options.min_update_m && xi.head<3>().norm() < options.min_update_rad)
+      if (xi.tail<3>().norm() < options.min_update_m &&
+          xi.head<3>().norm() < options.min_update_rad)
         break;
     }
   }

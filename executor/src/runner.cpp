@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <csignal>
+#include <cstdio>
 #include <ctime>
 #include <functional>
 #include <iostream>
@@ -288,7 +289,9 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     return 1;
   }
   print_target_table(summary, out);
-  out << "tour " << to_string(summary.outcome) << " in " << summary.mission_s
+  char mission_time[32];
+  std::snprintf(mission_time, sizeof mission_time, "%.2f", summary.mission_s);
+  out << "tour " << to_string(summary.outcome) << " in " << mission_time
       << " s of mission time; run directory: " << run_dir.string() << "\n";
   return exit_code(summary.outcome);
 }

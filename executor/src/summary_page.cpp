@@ -285,7 +285,7 @@ table.overview th{background:#eee}table.overview td:nth-child(n+3):nth-child(-n+
 .badge{display:inline-block;padding:1px 8px;border-radius:9px;color:#fff;font-weight:600;font-size:90%}
 .tour img{max-width:100%;border:1px solid #bbb}
 .pictures{display:flex;flex-wrap:wrap;gap:12px}
-figure{margin:0;max-width:calc(50% - 6px)}figure img{max-width:100%;border:1px solid #bbb;display:block}
+figure{margin:0;max-width:calc(50% - 6px)}figure img{max-width:100%;max-height:480px;width:auto;height:auto;border:1px solid #bbb;display:block}
 figcaption{font-size:90%;color:#555;margin-top:2px}
 footer{margin-top:32px;color:#888;font-size:85%}
 )";

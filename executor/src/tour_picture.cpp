@@ -56,26 +56,24 @@ View make_view(const TourPictureInput& in) {
   std::for_each(in.estimated_trajectory.begin(), in.estimated_trajectory.end(), grow);
   std::for_each(in.true_trajectory.begin(), in.true_trajectory.end(), grow);
 
+  // The crop may reach past the map's edge (a target near it still gets its margin) but no
+  // further than the margin, so a wild trajectory point cannot blow the picture up.
   const int size_x = static_cast<int>(map.getSizeX());
   const int size_y = static_cast<int>(map.getSizeY());
+  const int margin_cells = static_cast<int>(std::ceil(kMarginM / res));
   const auto cell_x = [&](double x) {
-    return std::clamp(static_cast<int>(std::floor((x - map.getXMin()) / res)), 0, size_x);
+    return std::clamp(static_cast<int>(std::floor((x - map.getXMin()) / res)), -margin_cells,
+                      size_x + margin_cells);
   };
   const auto cell_y = [&](double y) {
-    return std::clamp(static_cast<int>(std::floor((y - map.getYMin()) / res)), 0, size_y);
+    return std::clamp(static_cast<int>(std::floor((y - map.getYMin()) / res)), -margin_cells,
+                      size_y + margin_cells);
   };
   View v;
   v.cx0 = cell_x(x_min - kMarginM);
   v.cx1 = cell_x(x_max + kMarginM) + 1;
   v.cy0 = cell_y(y_min - kMarginM);
   v.cy1 = cell_y(y_max + kMarginM) + 1;
-  v.cx1 = std::min(v.cx1, size_x);
-  v.cy1 = std::min(v.cy1, size_y);
-  if (v.cx1 <= v.cx0 || v.cy1 <= v.cy0) {  // the tour lies off the map: show the whole map
-    v.cx0 = v.cy0 = 0;
-    v.cx1 = size_x;
-    v.cy1 = size_y;
-  }
   const int long_cells = std::max(v.cx1 - v.cx0, v.cy1 - v.cy0);
   double px_per_cell = std::min(kMaxPxPerCell, kMaxLongSidePx / long_cells);
   // Whole pixels per cell keep the cells crisp; large sites get a fractional scale instead.
@@ -90,10 +88,17 @@ View make_view(const TourPictureInput& in) {
 
 cv::Mat render_map(const mrpt::maps::COccupancyGridMap2D& map, const View& v) {
   cv::Mat cells(v.cy1 - v.cy0, v.cx1 - v.cx0, CV_8UC3);
+  const int size_x = static_cast<int>(map.getSizeX());
+  const int size_y = static_cast<int>(map.getSizeY());
   for (int r = 0; r < cells.rows; ++r) {
     const int cy = v.cy1 - 1 - r;  // image rows run downwards, map y upwards
     for (int c = 0; c < cells.cols; ++c) {
-      const float free = map.getCell(v.cx0 + c, cy);
+      const int cx = v.cx0 + c;
+      if (cx < 0 || cy < 0 || cx >= size_x || cy >= size_y) {
+        cells.at<cv::Vec3b>(r, c) = cv::Vec3b(235, 235, 235);  // beyond the map
+        continue;
+      }
+      const float free = map.getCell(cx, cy);
       // Walls stay dark but not black, so the black start marker and text remain legible.
       const auto grey = static_cast<uchar>(std::clamp(70.0 + 185.0 * free, 0.0, 255.0));
       cells.at<cv::Vec3b>(r, c) = cv::Vec3b(grey, grey, grey);
@@ -115,11 +120,19 @@ void draw_polyline(cv::Mat& img, const View& v, const std::vector<Pose2D>& poses
   cv::polylines(img, pts, false, colour, thickness, cv::LINE_AA, kShift);
 }
 
-void draw_label(cv::Mat& img, const std::string& text, cv::Point origin, double scale,
-                const cv::Scalar& colour) {
+// Beside a marker: above right by default, flipped left or below where it would leave the
+// picture.
+void draw_label(cv::Mat& img, const std::string& text, const cv::Point2d& marker_px, int radius_px,
+                double scale) {
+  int base = 0;
+  const cv::Size size = cv::getTextSize(text, kFont, scale, 1, &base);
+  int x = static_cast<int>(marker_px.x) + radius_px + 4;
+  int y = static_cast<int>(marker_px.y) - radius_px - 4;
+  if (x + size.width > img.cols) x = static_cast<int>(marker_px.x) - radius_px - 4 - size.width;
+  if (y - size.height < 0) y = static_cast<int>(marker_px.y) + radius_px + 4 + size.height;
   // A white halo keeps the text readable over walls and paths.
-  cv::putText(img, text, origin, kFont, scale, cv::Scalar(255, 255, 255), 4, cv::LINE_AA);
-  cv::putText(img, text, origin, kFont, scale, colour, 1, cv::LINE_AA);
+  cv::putText(img, text, cv::Point(x, y), kFont, scale, cv::Scalar(255, 255, 255), 4, cv::LINE_AA);
+  cv::putText(img, text, cv::Point(x, y), kFont, scale, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
 }
 
 void draw_pose_marker(cv::Mat& img, const View& v, const Pose2D& pose, const cv::Scalar& fill,
@@ -224,35 +237,29 @@ cv::Mat render_tour_picture(const TourPictureInput& input) {
 
   cv::Mat img(v.height_px + legend_h, canvas_w, CV_8UC3, cv::Scalar(255, 255, 255));
   const auto& map = *input.map;
-  render_map(map, v).copyTo(img(cv::Rect(0, 0, v.width_px, v.height_px)));
+  // Drawing into the map's region clips markers near the edge there, off the legend.
+  cv::Mat area = img(cv::Rect(0, 0, v.width_px, v.height_px));
+  render_map(map, v).copyTo(area);
 
   const int line_px = std::max(2, static_cast<int>(std::lround(v.width_px / 600.0)));
   for (const auto& path : input.planned_paths) {
-    draw_polyline(img, v, path, bgr(kPlannedPathColour), line_px + 3);
+    draw_polyline(area, v, path, bgr(kPlannedPathColour), line_px + 3);
   }
-  draw_polyline(img, v, input.true_trajectory, bgr(kTrueTrajectoryColour), line_px);
-  draw_polyline(img, v, input.estimated_trajectory, bgr(kEstimatedTrajectoryColour), line_px);
+  draw_polyline(area, v, input.true_trajectory, bgr(kTrueTrajectoryColour), line_px);
+  draw_polyline(area, v, input.estimated_trajectory, bgr(kEstimatedTrajectoryColour), line_px);
 
   const int radius_px = std::max(6, static_cast<int>(std::lround(0.15 * v.px_per_m)));
   const int arrow_px = std::max(24, static_cast<int>(std::lround(0.6 * v.px_per_m)));
   const double label_scale = v.width_px > 900 ? 0.6 : 0.5;
-  draw_pose_marker(img, v, input.start, bgr(kStartColour), radius_px, arrow_px);
-  const cv::Point2d start_px = v.to_px(input.start.x_m, input.start.y_m);
-  draw_label(img, "start",
-             cv::Point(static_cast<int>(start_px.x) + radius_px + 4,
-                       static_cast<int>(start_px.y) + radius_px + 14),
-             label_scale, cv::Scalar(0, 0, 0));
+  draw_pose_marker(area, v, input.start, bgr(kStartColour), radius_px, arrow_px);
   for (const auto& t : input.targets) {
-    draw_pose_marker(img, v, t.pose, bgr(outcome_colour(t.outcome)), radius_px, arrow_px);
+    draw_pose_marker(area, v, t.pose, bgr(outcome_colour(t.outcome)), radius_px, arrow_px);
   }
   // Labels after all markers so no marker covers a label.
+  draw_label(area, "start", v.to_px(input.start.x_m, input.start.y_m), radius_px, label_scale);
   for (const auto& t : input.targets) {
-    const cv::Point2d c = v.to_px(t.pose.x_m, t.pose.y_m);
-    const std::string text = t.id + " (" + (t.outcome.empty() ? "not visited" : t.outcome) + ")";
-    draw_label(
-        img, text,
-        cv::Point(static_cast<int>(c.x) + radius_px + 4, static_cast<int>(c.y) - radius_px - 4),
-        label_scale, cv::Scalar(0, 0, 0));
+    draw_label(area, t.id + " (" + (t.outcome.empty() ? "not visited" : t.outcome) + ")",
+               v.to_px(t.pose.x_m, t.pose.y_m), radius_px, label_scale);
   }
 
   // Legend strip.

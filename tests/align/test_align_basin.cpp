@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <cstdlib>
 #include <random>
 
 #include "projtour/registration.hpp"
@@ -48,15 +47,14 @@ class Basin : public ::testing::Test {
     std::vector<double> times_ms;
     for (int t = 0; t < trials; ++t) {
       const int f = t % kFrames;
-      const Eigen::Isometry3d guess = test::perturb(
-          truths_[f], unit(rng) * max_trans_m, deg_to_rad(unit(rng) * max_rot_deg), rng);
-      const RegistrationResult r =
-          align_projective_icp(*model_, frames_[f], Eigen::Vector3d::Zero(), guess, max_trans_m + 0.02);
+      const Eigen::Isometry3d guess = test::perturb(truths_[f], unit(rng) * max_trans_m,
+                                                    deg_to_rad(unit(rng) * max_rot_deg), rng);
+      const RegistrationResult r = align_projective_icp(
+          *model_, frames_[f], Eigen::Vector3d::Zero(), guess, max_trans_m + 0.02);
       const double e_mm = translation_distance_m(r.T_camera_model, truths_[f]) * 1000.0;
       const double e_deg = rad_to_deg(rotation_angle_rad(r.T_camera_model, truths_[f]));
       ++fig.trials;
       if (e_mm <= 2.0 && e_deg <= 0.2) ++fig.successes;
-      else if (std::getenv("BASIN_DEBUG")) std::printf("fail f%d init %.1f mm %.1f deg -> %.2f mm %.3f deg inl %.2f\n", f, translation_distance_m(guess, truths_[f])*1000, rad_to_deg(rotation_angle_rad(guess, truths_[f])), e_mm, e_deg, r.inlier_fraction);
       times_ms.push_back(r.time_ms);
     }
     std::sort(times_ms.begin(), times_ms.end());

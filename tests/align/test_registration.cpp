@@ -72,7 +72,7 @@ TEST(AverageDepthFrames, MeanOfConsistentReadingsAndMajorityForHoles) {
                                     flat_frame(1500)};
   frames[3].t_s = 2.5;
   frames[3].sequence = 9;
-  frames[0].depth_mm[5] = 0;  // one dropout of four: still a reading
+  frames[0].depth_mm[5] = 0;                              // one dropout of four: still a reading
   for (int i = 0; i < 3; ++i) frames[i].depth_mm[7] = 0;  // three of four: a hole
   const DepthFrame avg = average_depth_frames(frames);
   EXPECT_EQ(avg.depth_mm[0], 1002);  // 1500 is an outlier beyond 3 % of the median
@@ -137,7 +137,8 @@ TEST_F(ProjectiveIcpTest, QualityOfAWrongPoseIsPoor) {
 TEST_F(ProjectiveIcpTest, EmptySceneDoesNotConverge) {
   const Eigen::Isometry3d truth = test::T_camera_model_facing(1.0, 0.3);
   const DepthFrame f = flat_frame(0);
-  const RegistrationResult r = align_projective_icp(*model_, f, Eigen::Vector3d::Zero(), truth, 0.1);
+  const RegistrationResult r =
+      align_projective_icp(*model_, f, Eigen::Vector3d::Zero(), truth, 0.1);
   EXPECT_FALSE(r.converged);
   EXPECT_EQ(r.scene_points, 0u);
   EXPECT_EQ(r.inlier_fraction, 0.0);

@@ -175,11 +175,11 @@ TEST_F(Command, InvalidMachineExitsTwoWithEveryProblemAndMovesNothing) {
   const fs::path mission = write_mission(machine);
   const std::string prefix = mission.string() + ":";
   EXPECT_EQ(projtour("validate " + mission.string()), 2);
-  EXPECT_NE(err().find(prefix + "28:22: machine.states.visit.states.work.behaviour: unknown "
+  EXPECT_NE(err().find(prefix + "29:22: machine.states.visit.states.work.behaviour: unknown "
                                 "behaviour kind \"scriptd\"; did you mean \"scripted\"?"),
             std::string::npos)
       << err();
-  EXPECT_NE(err().find(prefix + "35:45: machine.states.visit.states.show.on.off_screen: "
+  EXPECT_NE(err().find(prefix + "35:47: machine.states.visit.states.show.on.off_screen: "
                                 "transition to unknown state \"skp_target\"; did you mean "
                                 "\"skip_target\"?"),
             std::string::npos)
@@ -244,7 +244,7 @@ TEST_F(Command, InterruptThenResume) {
     const std::string err = (dir_ / "stderr1.txt").string();
     std::freopen(out.c_str(), "w", stdout);
     std::freopen(err.c_str(), "w", stderr);
-    ::execl(kProjtour.c_str(), kProjtour.c_str(), "run", mission.c_str(), "--speed", "8", "--out",
+    ::execl(kProjtour.c_str(), kProjtour.c_str(), "run", mission.c_str(), "--speed", "4", "--out",
             run.c_str(), "--plugin-path", kPluginPath.c_str(), static_cast<char*>(nullptr));
     ::_exit(127);
   }

@@ -254,7 +254,7 @@ TEST(Transitions, UndeclaredOutcomeBecomesFailed) {
   h.load_default();
   h.build();
   EXPECT_EQ(h.run(), TourOutcome::completed_with_skips);
-  EXPECT_EQ(h.recorder.lines()[21], "outcome visit/project failed @rabbit");
+  EXPECT_EQ(h.recorder.lines()[19], "outcome visit/project failed @rabbit");
   EXPECT_NE(h.executor->records()[0].reason.find("does not declare: \"applause\""),
             std::string::npos);
 }

@@ -7,6 +7,7 @@
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/ground_truth.hpp"
 #include "projtour/localizer.hpp"
+#include "projtour/mission_loader.hpp"
 #include "projtour/occupancy_map.hpp"
 
 namespace projtour::nav_test {
@@ -104,7 +105,22 @@ Rig::Rig(const std::string& map_file, const Pose2D& start, std::uint64_t seed, D
   run_.log = &log_;
   registry_.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_localization.so");
   registry_.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_navigate.so");
-  localization_params_ = localization_params ? *localization_params : defaults("mrpt_localization");
+  if (drivers == Drivers::harness) {
+    drivers_.base = std::make_shared<SimBase>(world_);
+    drivers_.laser = std::make_shared<SimLaser>(world_);
+  } else {
+    // The simulator needs the whole robot (camera intrinsics, laser spec): the example's.
+    Diagnostics diag;
+    const auto robot = load_robot(PROJTOUR_SOURCE_DIR "/examples/robot/ud.yaml", diag);
+    if (!robot) throw InputError(diag);
+    mission_.robot = *robot;
+    registry_.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_sim.so");
+    drivers_.base = std::dynamic_pointer_cast<BaseDriver>(
+        registry_.create_driver("sim_base", defaults("sim_base"), run_));
+    drivers_.laser = std::dynamic_pointer_cast<LaserDriver>(
+        registry_.create_driver("sim_laser", defaults("sim_laser"), run_));
+  }
+  localization_params_ = defaults("mrpt_localization");
   localization_ = registry_.create_service("mrpt_localization", localization_params_, run_);
   for (const auto& d : drivers_.all()) d->update(0.0);
   Context ctx = context(&localization_params_, nullptr);

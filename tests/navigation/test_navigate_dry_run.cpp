@@ -168,7 +168,9 @@ TEST(NavigateOutcomes, ReplansAroundAnObstacleTheMapDoesNotHave) {
   // The last plan (made after the laser saw the box) passes beside it.
   const auto path = rig.blackboard().require<std::vector<Pose2D>>(keys::kPlannedPath);
   for (const Pose2D& p : path) {
-    if (p.x_m > 13.6 && p.x_m < 14.8) EXPECT_GT(p.y_m, 2.3) << p.x_m << ", " << p.y_m;
+    if (p.x_m > 13.6 && p.x_m < 14.8) {
+      EXPECT_GT(p.y_m, 2.3) << p.x_m << ", " << p.y_m;
+    }
   }
   EXPECT_LT(distance_m(rig.truth(), standoff_pose(target)), 0.15);
 }
@@ -199,10 +201,12 @@ TEST(NavigateOutcomes, LostWhenTheParticleCloudIsSpreadOut) {
   EXPECT_EQ(outcome->name, "lost");
 }
 
-TEST(NavigateOutcomes, LostWhenTheRobotIsCarriedAwayAndScansStopFitting) {
+TEST(NavigateOutcomes, LostWhenTheRobotIsTurnedUnnoticedAndScansStopFitting) {
   Rig rig(kDemoMap, {22.0, -5.0, -kPi / 2}, 8);
   rig.idle(1.0);
-  rig.world().truth.x_m += 0.6;  // kidnapped: no odometry of it
+  // Kidnapped: turned a quarter turn with no odometry of it. (Displacements of half a metre
+  // the filter often tracks back on its own while driving; this it cannot.)
+  rig.world().truth.yaw_rad += kPi / 2;
   Params params = rig.defaults("navigate");
   params.set("lost_unconverged_s", 3.0);
   const TargetSpec target = target_for_goal("t", {22.0, -20.0, -kPi / 2});

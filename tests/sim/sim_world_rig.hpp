@@ -45,10 +45,10 @@ struct Rig {
     sign.id = "sign";
     sign.model = sign_off();
     sign.T_map_model = isometry_from_xyz_rpy(3.0, 0.0, 0.9, 0, 0, kPi);
-    // The front face's corners, inset: top-left, top-right, bottom-right, bottom-left as seen
-    // from the front (+x), where +y is to the viewer's right... of the model's left.
-    sign.model_points = {Eigen::Vector3d(0.01, 0.1, 0.1), Eigen::Vector3d(0.01, -0.1, 0.1),
-                         Eigen::Vector3d(0.01, -0.1, -0.05), Eigen::Vector3d(0.01, 0.1, -0.05)};
+    // Corners on the front face, top-left, top-right, bottom-right, bottom-left as seen from the
+    // front, where the model's +y is the viewer's right.
+    sign.model_points = {Eigen::Vector3d(0.01, -0.1, 0.1), Eigen::Vector3d(0.01, 0.1, 0.1),
+                         Eigen::Vector3d(0.01, 0.1, -0.05), Eigen::Vector3d(0.01, -0.1, -0.05)};
     sign.standoff_m = 1.0;
     mission.targets.push_back(sign);
     world.model_error = false;

@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "projtour/kinematics.hpp"
+#include "projtour/model.hpp"
 #include "projtour/plugin_loader.hpp"
 #include "sim_world_rig.hpp"
 
@@ -226,8 +227,8 @@ TEST(SimCamera, SeesTheSignAtItsDistanceDeterministically) {
   EXPECT_EQ(a[0].depth_mm, b[0].depth_mm);
   EXPECT_EQ(a[1].depth_mm, b[1].depth_mm);
   EXPECT_NE(a[0].depth_mm, c[0].depth_mm);
-  // The board's front is ~0.99 m ahead of the base, seen by a camera 8 cm forward of the pan axis
-  // and pitched down 20 deg: a few thousand pixels between 0.8 and 1.2 m.
+  // The board (and the floor in front of it) about a metre from the camera fill a good part of
+  // the image.
   EXPECT_GT(sign_pixels(a[0], 800, 1200), 20000);
 }
 
@@ -349,6 +350,49 @@ TEST(SimFaults, BlockedPathStopsTheBaseAndTheLaserSeesIt) {
   rig.run_until(6.0);
   EXPECT_TRUE(w.base_blocked());
   EXPECT_LT(pose2d_from_isometry(w.true_T_map_base()).x_m, 1.7 - 0.1);
+}
+
+TEST(SimWorldTruth, ModelErrorAndTargetOffsetsAreSeededAndBounded) {
+  auto world_with = [](std::uint64_t seed) {
+    auto rig = std::make_unique<Rig>(seed);
+    rig->mission.targets[0].model = std::string(PROJTOUR_SOURCE_DIR) + "/examples/models/bunny.ply";
+    rig->world.model_error = true;
+    rig->world.model_error_noise_mm = 1.0;
+    rig->world.target_offset_max_m = 0.05;
+    rig->world.target_offset_max_deg = 5.0;
+    rig->make();
+    return rig;
+  };
+  const auto a = world_with(1), b = world_with(1), c = world_with(2);
+  const TriangleMesh robot_copy = load_mesh(a->mission.targets[0].model);
+  const TriangleMesh& seen = a->sim->true_mesh("sign");
+  ASSERT_EQ(seen.vertices.size(), robot_copy.vertices.size());
+  double sum2 = 0.0, max_m = 0.0;
+  for (std::size_t i = 0; i < seen.vertices.size(); ++i) {
+    const double d = (seen.vertices[i] - robot_copy.vertices[i]).norm();
+    sum2 += d * d;
+    max_m = std::max(max_m, d);
+  }
+  // About 1 mm RMS, smooth (no vertex far out).
+  EXPECT_NEAR(std::sqrt(sum2 / seen.vertices.size()) * 1000.0, 1.0, 0.05);
+  EXPECT_LT(max_m * 1000.0, 4.0);
+  EXPECT_EQ(b->sim->true_mesh("sign").vertices, seen.vertices);
+  EXPECT_NE(c->sim->true_mesh("sign").vertices, seen.vertices);
+  // The true pose: nominal moved within the bounds, the same for the same seed.
+  const Eigen::Isometry3d nominal = a->mission.targets[0].T_map_model;
+  const Eigen::Isometry3d truth = a->sim->true_T_map_model("sign");
+  EXPECT_LE(translation_distance_m(truth, nominal), 0.05 + 1e-9);
+  EXPECT_LE(rad_to_deg(rotation_angle_rad(truth, nominal)), 5.0 + 1e-9);
+  EXPECT_GT(translation_distance_m(truth, nominal), 0.0);
+  EXPECT_TRUE(b->sim->true_T_map_model("sign").isApprox(truth));
+  EXPECT_FALSE(c->sim->true_T_map_model("sign").isApprox(truth));
+  // A pose listed in the world file wins.
+  Rig listed;
+  listed.world.T_map_model_true["sign"] = isometry_from_xyz_rpy(3.01, 0.02, 0.9, 0, 0, 3.1);
+  listed.world.target_offset_max_m = 0.05;
+  listed.make();
+  EXPECT_TRUE(listed.sim->true_T_map_model("sign").isApprox(
+      isometry_from_xyz_rpy(3.01, 0.02, 0.9, 0, 0, 3.1)));
 }
 
 TEST(SimPlugin, ProvidesFiveDriversSharingOneWorld) {

@@ -54,7 +54,7 @@ DepthFrame average_depth_frames(const std::vector<DepthFrame>& frames);
 
 // One stage of the coarse-to-fine schedule.
 struct IcpStage {
-  int pyramid_level = 0;  // 0 = full resolution, each level halves width and height
+  int pyramid_level = 0;        // 0 = full resolution, each level halves width and height
   int max_model_points = 2000;  // uniform subset of the model used at this stage
   int search_radius_px = 0;  // association window: +- pixels around the projection, at this level
   double max_distance_m = 0.01;  // correspondences farther apart are rejected
@@ -86,11 +86,11 @@ struct IcpOptions {
 
 struct RegistrationResult {
   Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
-  bool converged = false;  // enough correspondences at every stage
-  int iterations = 0;  // over all stages (and hypotheses)
-  int hypotheses = 1;  // schedules run: 1, or more when the first fit was poor
+  bool converged = false;        // enough correspondences at every stage
+  int iterations = 0;            // over all stages (and hypotheses)
+  int hypotheses = 1;            // schedules run: 1, or more when the first fit was poor
   double inlier_fraction = 0.0;  // of the model points facing the camera that land on the image
-  double rmse_mm = 0.0;  // point-to-plane, over the inliers
+  double rmse_mm = 0.0;          // point-to-plane, over the inliers
   std::size_t inliers = 0;
   std::size_t scene_points = 0;  // valid points the registration saw
   double time_ms = 0.0;

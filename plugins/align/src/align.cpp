@@ -82,8 +82,8 @@ int validate(const void* params, char* error, size_t error_size) {
 std::string format_quality(const RegistrationResult& r) {
   std::ostringstream s;
   s.precision(3);
-  s << "inlier fraction " << r.inlier_fraction << ", RMSE " << r.rmse_mm << " mm, "
-    << r.iterations << " iterations, " << r.time_ms << " ms";
+  s << "inlier fraction " << r.inlier_fraction << ", RMSE " << r.rmse_mm << " mm, " << r.iterations
+    << " iterations, " << r.time_ms << " ms";
   return s.str();
 }
 
@@ -104,11 +104,13 @@ class Align : public Behaviour {
 
   std::optional<Outcome> tick(Context& ctx) override {
     if (ctx.cancel_requested()) return Outcome{kOutcomeCancelled, "cancelled"};
-    if (ctx.target == nullptr) return Outcome{kOutcomeFailed, "align runs only within a target visit"};
+    if (ctx.target == nullptr)
+      return Outcome{kOutcomeFailed, "align runs only within a target visit"};
     Blackboard& bb = ctx.blackboard();
     const auto frame = bb.get<std::shared_ptr<const DepthFrame>>(keys::kDepthFrame);
     if (!frame || !*frame) {
-      return Outcome{kOutcomeFailed, "no depth frame on the blackboard (capture runs before align)"};
+      return Outcome{kOutcomeFailed,
+                     "no depth frame on the blackboard (capture runs before align)"};
     }
     const auto localization = bb.get<PoseEstimate2D>(keys::kLocalization);
     if (!localization) return Outcome{kOutcomeFailed, "no localization estimate on the blackboard"};
@@ -134,7 +136,8 @@ class Align : public Behaviour {
     if (scene_points < static_cast<std::size_t>(settings_.min_points)) {
       bb.erase(keys::kTCameraModel);
       std::ostringstream why;
-      why << scene_points << " points within " << model->bounding_radius_m() + settings_.crop_margin_m
+      why << scene_points << " points within "
+          << model->bounding_radius_m() + settings_.crop_margin_m
           << " m of the expected target (at least " << settings_.min_points << " needed)";
       if (settings_.draw) draw(ctx, **frame, scene, *model, T_camera_model_guess, nullptr);
       return Outcome{"no_target", why.str()};
@@ -142,7 +145,8 @@ class Align : public Behaviour {
 
     RegistrationResult result = register_scene(model, scene, T_camera_model_guess);
     result.time_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started)
+            .count();
     keys::AlignQuality quality;
     quality.method = settings_.method_name;
     quality.time_ms = result.time_ms;
@@ -159,8 +163,9 @@ class Align : public Behaviour {
     if (!good) {
       bb.erase(keys::kTCameraModel);
       std::ostringstream why;
-      why << "poor fit: " << format_quality(result) << " (gate: inlier fraction >= "
-          << settings_.min_inlier_fraction << ", RMSE <= " << settings_.max_rmse_mm << " mm)";
+      why << "poor fit: " << format_quality(result)
+          << " (gate: inlier fraction >= " << settings_.min_inlier_fraction
+          << ", RMSE <= " << settings_.max_rmse_mm << " mm)";
       if (!result.converged) why << "; too few correspondences";
       return Outcome{"poor_fit", why.str()};
     }
@@ -214,9 +219,9 @@ const projtour_param_desc kAlignParams[] = {
     {"draw", "boolean", "true", "write alignment.png into the target's folder"},
 };
 const char* const kAlignOutcomes[] = {"succeeded", "poor_fit", "no_target"};
-const projtour_kind_desc kKinds[] = {behaviour_kind<Align>(
-    "align", "ICP of the target's model against the captured depth frame", kAlignParams,
-    kAlignOutcomes, &validate)};
+const projtour_kind_desc kKinds[] = {
+    behaviour_kind<Align>("align", "ICP of the target's model against the captured depth frame",
+                          kAlignParams, kAlignOutcomes, &validate)};
 
 }  // namespace
 }  // namespace projtour::align

@@ -25,7 +25,8 @@ struct CameraView : View {
   bool pixel(const Eigen::Vector3f& p_camera, int& u, int& v) const override {
     const auto px = k->project((p_camera - depth_to_color).cast<double>());
     if (!px) return false;
-    u = static_cast<int>((px->x() - u_off) * scale), v = static_cast<int>((px->y() - v_off) * scale);
+    u = static_cast<int>((px->x() - u_off) * scale),
+    v = static_cast<int>((px->y() - v_off) * scale);
     return u >= 0 && v >= 0 && u < width && v < height;
   }
 };

@@ -25,7 +25,9 @@ using Gicp = Counting<pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::
 
 }  // namespace
 
-const char* to_string(PclMethod method) { return method == PclMethod::icp ? "pcl_icp" : "pcl_gicp"; }
+const char* to_string(PclMethod method) {
+  return method == PclMethod::icp ? "pcl_icp" : "pcl_gicp";
+}
 
 struct PclRegistration::Impl {
   std::shared_ptr<const IcpModel> model;

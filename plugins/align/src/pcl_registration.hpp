@@ -31,7 +31,8 @@ class PclRegistration {
   // Registers the model (source) against the scene's valid points (target) from the guess.
   // Quality (inlier fraction, RMSE) is measured as for the projective ICP, so one quality gate
   // serves every method; time_ms covers the conversion, the search trees and the solve.
-  RegistrationResult align(const OrganizedCloud& scene, const Eigen::Isometry3d& T_camera_model_guess,
+  RegistrationResult align(const OrganizedCloud& scene,
+                           const Eigen::Isometry3d& T_camera_model_guess,
                            const IcpOptions& quality_options = {}) const;
 
  private:

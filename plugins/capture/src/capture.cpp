@@ -94,9 +94,9 @@ const projtour_param_desc kParams[] = {
     {"max_wait_s", "number", "2.0", "no_frame when the frames have not arrived by then"},
 };
 const char* const kOutcomes[] = {"succeeded", "no_frame"};
-const projtour_kind_desc kKinds[] = {behaviour_kind<Capture>(
-    "capture", "a depth frame from the depth camera onto the blackboard", kParams, kOutcomes,
-    &validate)};
+const projtour_kind_desc kKinds[] = {
+    behaviour_kind<Capture>("capture", "a depth frame from the depth camera onto the blackboard",
+                            kParams, kOutcomes, &validate)};
 
 }  // namespace
 }  // namespace projtour::capture

@@ -135,9 +135,11 @@ class OpenNi2Camera : public DepthCameraDriver {
     out.depth_mm.resize(static_cast<std::size_t>(out.width) * out.height);
     const auto* data = static_cast<const std::uint8_t*>(frame.getData());
     const int stride = frame.getStrideInBytes();
-    const bool hundred_um = frame.getVideoMode().getPixelFormat() == openni::PIXEL_FORMAT_DEPTH_100_UM;
+    const bool hundred_um =
+        frame.getVideoMode().getPixelFormat() == openni::PIXEL_FORMAT_DEPTH_100_UM;
     for (int v = 0; v < out.height; ++v) {
-      const auto* row = reinterpret_cast<const openni::DepthPixel*>(data + static_cast<std::size_t>(v) * stride);
+      const auto* row =
+          reinterpret_cast<const openni::DepthPixel*>(data + static_cast<std::size_t>(v) * stride);
       std::uint16_t* dst = &out.depth_mm[static_cast<std::size_t>(v) * out.width];
       if (hundred_um) {
         for (int u = 0; u < out.width; ++u) dst[u] = static_cast<std::uint16_t>((row[u] + 5) / 10);
@@ -161,7 +163,8 @@ class OpenNi2Camera : public DepthCameraDriver {
 
 const projtour_param_desc kParams[] = {
     {"uri", "string", "", "device URI, .oni recording, or Dummy; empty = the first device"},
-    {"fallback_hfov_deg", "number", "58.5", "horizontal field of view when the device reports none"},
+    {"fallback_hfov_deg", "number", "58.5",
+     "horizontal field of view when the device reports none"},
     {"fallback_vfov_deg", "number", "45.6", "vertical field of view when the device reports none"},
 };
 const projtour_kind_desc kKinds[] = {driver_kind<OpenNi2Camera>(

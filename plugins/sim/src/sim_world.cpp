@@ -716,6 +716,12 @@ std::string SimWorld::active_target() const {
   return t ? t->spec->id : std::string();
 }
 
+const TriangleMesh& SimWorld::true_mesh(const std::string& target_id) const {
+  const Impl::Target* t = impl_->target(target_id);
+  if (t == nullptr) throw std::out_of_range("simulated world: no target '" + target_id + "'");
+  return t->mesh_true;
+}
+
 void SimWorld::set_true_base_pose(const Pose2D& pose) {
   impl_->vehicle.setCurrentGTPose(mrpt::math::TPose2D(pose.x_m, pose.y_m, pose.yaw_rad));
 }

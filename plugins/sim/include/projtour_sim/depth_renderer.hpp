@@ -48,6 +48,10 @@ class Scene {
   // nothing is hit.
   bool intersect(const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, float t_max,
                  RayHit& hit) const;
+  // Four rays from one origin at once (SSE where available): what a pinhole camera casts.
+  // dir_x/y/z hold the four directions, lane by lane; each hit gets its t_max first.
+  void intersect4(const Eigen::Vector3f& origin, const float dir_x[4], const float dir_y[4],
+                  const float dir_z[4], float t_max, RayHit hits[4]) const;
   std::size_t triangle_count() const { return tri_object_.size(); }
   bool has_floor() const { return has_floor_; }
 
@@ -65,6 +69,8 @@ class Scene {
     float m[12];
   };
   void intersect_bvh(const float o[3], const float d[3], RayHit& hit) const;
+  void intersect_bvh4(const float o[3], const float dx[4], const float dy[4], const float dz[4],
+                      RayHit hits[4]) const;
 
   std::vector<Node> nodes_;
   std::vector<Tri> tris_;

@@ -27,6 +27,7 @@
 #include "projtour/context.hpp"
 #include "projtour/drivers.hpp"
 #include "projtour/ground_truth.hpp"
+#include "projtour/model.hpp"
 
 namespace cv {
 class Mat;
@@ -89,6 +90,8 @@ class SimWorld : public GroundTruth {
 
   // The target whose faults act now ("" when none).
   std::string active_target() const;
+  // The surface the camera sees (model frame): the mission's mesh plus the model error.
+  const TriangleMesh& true_mesh(const std::string& target_id) const;
   // Teleports the true base (tests and the kidnap fault); odometry does not notice.
   void set_true_base_pose(const Pose2D& pose);
 
