@@ -15,6 +15,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "projtour/path_planner.hpp"
+
 namespace projtour {
 
 struct Localizer::Impl {
@@ -22,8 +24,7 @@ struct Localizer::Impl {
   mrpt::slam::CMonteCarloLocalization2D pdf;
   mrpt::bayes::CParticleFilter filter;
   mrpt::obs::CActionRobotMovement2D::TMotionModelOptions motion;
-  // Distance from each cell to the nearest occupied one (unknown space does not count: a scan
-  // ending in it does not fit).
+  // Distance from each cell to the boundary of free space (see the constructor).
   cv::Mat wall_distance_m;
   double x_min_m = 0.0, y_min_m = 0.0, resolution_m = 1.0;
   double fit = 1.0;
@@ -35,7 +36,6 @@ namespace {
 constexpr double kFitDistanceM = 0.2;
 constexpr double kFitSmoothing = 0.3;  // weight of the newest scan
 constexpr std::size_t kFitRays = 60;
-constexpr float kOccupiedBelow = 0.4f;  // free probability
 
 // The grid's lower-left corner and cell size locate points in `wall_distance_m`.
 struct WallField {
@@ -88,14 +88,20 @@ Localizer::Localizer(const mrpt::maps::COccupancyGridMap2D& map, const Localizer
   impl_->x_min_m = map.getXMin();
   impl_->y_min_m = map.getYMin();
   impl_->resolution_m = map.getResolution();
-  cv::Mat not_wall(static_cast<int>(map.getSizeY()), static_cast<int>(map.getSizeX()), CV_8UC1);
-  for (int cy = 0; cy < not_wall.rows; ++cy) {
-    for (int cx = 0; cx < not_wall.cols; ++cx) {
-      not_wall.at<std::uint8_t>(cy, cx) = map.getCell(cx, cy) < kOccupiedBelow ? 0 : 255;
+  // A wall is where free space meets the rest: a cell is that close to a wall when it is that
+  // close both to a free cell and to one that is not free. Scans of a kidnapped robot end in
+  // the open or deep in unmapped space, not on this band.
+  cv::Mat not_free(static_cast<int>(map.getSizeY()), static_cast<int>(map.getSizeX()), CV_8UC1);
+  for (int cy = 0; cy < not_free.rows; ++cy) {
+    for (int cx = 0; cx < not_free.cols; ++cx) {
+      not_free.at<std::uint8_t>(cy, cx) = map.getCell(cx, cy) > kFreeCellThreshold ? 255 : 0;
     }
   }
-  cv::distanceTransform(not_wall, impl_->wall_distance_m, cv::DIST_L2, cv::DIST_MASK_PRECISE,
-                        CV_32F);
+  cv::Mat to_not_free, to_free;
+  cv::distanceTransform(not_free, to_not_free, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+  cv::Mat free_mask = 255 - not_free;
+  cv::distanceTransform(free_mask, to_free, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+  impl_->wall_distance_m = cv::max(to_not_free, to_free);
   impl_->wall_distance_m *= impl_->resolution_m;
   auto& pf = impl_->filter.m_options;
   pf.PF_algorithm = mrpt::bayes::CParticleFilter::pfStandardProposal;

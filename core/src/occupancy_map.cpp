@@ -156,7 +156,8 @@ std::shared_ptr<COccupancyGridMap2D> load_simplemap(const fs::path& file) {
     throw std::runtime_error(file.string() + ": not a readable MRPT simplemap: " + e.what());
   }
   auto map = std::make_shared<COccupancyGridMap2D>(-10.0f, 10.0f, -10.0f, 10.0f, 0.05f);
-  map->insertionOptions.maxOccupancyUpdateCertainty = 0.55f;
+  // Crisper than pf-localization's 0.55: free space must read as free up to the walls.
+  map->insertionOptions.maxOccupancyUpdateCertainty = 0.8f;
   map->insertionOptions.maxDistanceInsertion = 15.0f;
   map->insertionOptions.considerInvalidRangesAsFreeSpace = true;
   map->loadFromSimpleMap(simple_map);

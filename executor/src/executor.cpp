@@ -129,7 +129,7 @@ void Executor::emit(EventType type, const StateSpec& state, const std::string& o
   for (ExecutorObserver* o : observers_) o->on_event(e);
 }
 
-void Executor::start_services() {
+bool Executor::start_services() {
   start_s_ = clock_.now_s();
   service_contexts_.reserve(services_.size());
   for (auto& s : services_) {
@@ -138,15 +138,22 @@ void Executor::start_services() {
     service_contexts_.back().params = &s.params;
   }
   for (std::size_t i = 0; i < services_.size(); ++i) {
-    services_[i].service->start(service_contexts_[i]);
+    try {
+      services_[i].service->start(service_contexts_[i]);
+    } catch (const std::exception& e) {
+      // Services started so far are stopped by finish_tour.
+      service_contexts_.resize(i);
+      abort_tour("service " + services_[i].role + " failed to start: " + e.what());
+      return false;
+    }
   }
+  return true;
 }
 
 void Executor::start() {
   if (started_) return;
   started_ = true;
-  start_services();
-  enter(machine_.root());
+  if (start_services()) enter(machine_.root());
 }
 
 void Executor::start_at(const std::string& state_path, std::size_t target_index) {
@@ -156,7 +163,7 @@ void Executor::start_at(const std::string& state_path, std::size_t target_index)
     throw std::invalid_argument("no target " + std::to_string(target_index));
   }
   started_ = true;
-  start_services();
+  if (!start_services()) return;
   std::vector<const StateSpec*> chain;
   for (const StateSpec* s = state; s != nullptr; s = s->parent) chain.insert(chain.begin(), s);
   for (std::size_t i = 0; i + 1 < chain.size(); ++i) {

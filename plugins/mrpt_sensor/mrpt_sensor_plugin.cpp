@@ -89,9 +89,16 @@ class MrptSensorLaser : public LaserDriver {
   }
 
  private:
+  // MRPT exceptions carry a banner, the message and a backtrace; only the message matters here.
   static std::string first_line(const std::string& text) {
-    const auto end = text.find('\n');
-    return end == std::string::npos ? text : text.substr(0, end);
+    std::string line;
+    std::size_t start = 0;
+    const auto message = text.find("Message:");
+    if (message != std::string::npos) start = message + 8;
+    const auto end = text.find('\n', start);
+    line = text.substr(start, end == std::string::npos ? std::string::npos : end - start);
+    const auto first = line.find_first_not_of(' ');
+    return first == std::string::npos ? text : line.substr(first);
   }
 
   static LaserScan to_scan(const mrpt::obs::CObservation2DRangeScan& obs, double t_s) {

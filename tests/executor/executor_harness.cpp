@@ -149,8 +149,8 @@ void Harness::load(const std::string& yaml) {
 
 void Harness::build(ExecutorOptions options) {
   behaviours_ = create_behaviours(*machine, catalog, run_context);
-  executor = std::make_unique<Executor>(*machine, behaviours_, std::vector<ServiceInstance>{},
-                                        run_context, clock, options);
+  executor =
+      std::make_unique<Executor>(*machine, behaviours_, services, run_context, clock, options);
   executor->add_observer(&recorder);
 }
 

@@ -68,6 +68,7 @@ class Harness {
   std::optional<Machine> machine;
   std::unique_ptr<Executor> executor;
   Recorder recorder;
+  std::vector<ServiceInstance> services;  // handed to the executor by build()
 
  private:
   std::map<std::string, Params> scripts_;

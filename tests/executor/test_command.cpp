@@ -11,6 +11,8 @@
 #include <sstream>
 #include <thread>
 
+#include "projtour/plugin_loader.hpp"
+#include "projtour_executor/executor.hpp"
 #include "projtour_executor/json.hpp"
 
 namespace projtour {
@@ -293,6 +295,98 @@ TEST_F(Command, ResumeWithoutCheckpointIsInvalidInput) {
                      (dir_ / "none").string()),
             2);
   EXPECT_NE(err().find("cannot resume"), std::string::npos) << err();
+}
+
+// The scripted kinds through dlopen and the registry, driven in-process: what the plugin
+// declares is what the machine is checked against, and its behaviours run the tour.
+TEST(ScriptedPlugin, RunsAMachineThroughTheRegistry) {
+  PluginRegistry registry;
+  registry.load_library(kPluginPath + "/libprojtour_testing.so");
+  RegistryCatalog catalog(registry);
+  Diagnostics diag;
+  const auto node = load_yaml_string(R"(initial: visit
+states:
+  visit:
+    for_each: target
+    initial: align
+    states:
+      align:
+        behaviour: scripted_align
+        params: {outcomes: "poor_fit, succeeded", ticks: 2}
+        retries: 1
+        on: {succeeded: finish, poor_fit: [align, skip_target], no_target: skip_target,
+             failed: skip_target}
+    on: {done: finish}
+)",
+                                     "plugin_machine.yaml", diag);
+  ASSERT_TRUE(node);
+  auto machine = load_machine(YamlField(*node, "plugin_machine.yaml", diag), catalog, diag);
+  ASSERT_TRUE(machine) << diag.format();
+
+  MissionSpec mission;
+  mission.name = "plugin";
+  mission.targets.resize(2);
+  mission.targets[0].id = "a";
+  mission.targets[1].id = "b";
+  Blackboard blackboard;
+  SteppedClock clock;
+  RunContext run;
+  run.mission = &mission;
+  run.blackboard = &blackboard;
+  run.clock = &clock;
+  Executor executor(*machine, create_behaviours(*machine, catalog, run), {}, run, clock);
+  std::vector<std::string> lines;
+  struct Lines : ExecutorObserver {
+    std::vector<std::string>* out;
+    void on_event(const ExecutorEvent& e) override {
+      out->push_back(std::string(to_string(e.type)) + " " + e.state + " " + e.outcome);
+    }
+  } observer;
+  observer.out = &lines;
+  executor.add_observer(&observer);
+  EXPECT_EQ(executor.run_to_end(), TourOutcome::completed);
+  EXPECT_EQ(lines, (std::vector<std::string>{"enter tour ",
+                                             "enter tour/visit ",
+                                             "enter tour/visit/align ",
+                                             "outcome tour/visit/align poor_fit",
+                                             "exit tour/visit/align ",
+                                             "transition tour/visit/align poor_fit",
+                                             "enter tour/visit/align ",
+                                             "outcome tour/visit/align succeeded",
+                                             "exit tour/visit/align ",
+                                             "transition tour/visit/align succeeded",
+                                             "exit tour/visit ",
+                                             "enter tour/visit ",
+                                             "enter tour/visit/align ",
+                                             "outcome tour/visit/align succeeded",
+                                             "exit tour/visit/align ",
+                                             "transition tour/visit/align succeeded",
+                                             "exit tour/visit ",
+                                             "outcome tour/visit done",
+                                             "transition tour/visit done",
+                                             "exit tour ",
+                                             "outcome tour done"}));
+  EXPECT_EQ(executor.records()[0].retries, 1);
+  EXPECT_DOUBLE_EQ(clock.now_s(), 0.05 * 6);
+}
+
+TEST(ScriptedPlugin, MachineIsCheckedAgainstThePluginsDeclaredOutcomes) {
+  PluginRegistry registry;
+  registry.load_library(kPluginPath + "/libprojtour_testing.so");
+  RegistryCatalog catalog(registry);
+  Diagnostics diag;
+  const auto node = load_yaml_string(
+      "initial: a\nstates:\n  a:\n    behaviour: scripted_capture\n"
+      "    params: {ticks: 0}\n    on: {succeeded: finish, failed: abort, lost: abort}\n",
+      "m.yaml", diag);
+  ASSERT_TRUE(node);
+  EXPECT_FALSE(load_machine(YamlField(*node, "m.yaml", diag), catalog, diag));
+  EXPECT_EQ(diag.format(),
+            "m.yaml:5:13: states.a.params: ticks must be at least 1\n"
+            "m.yaml:6:44: states.a.on.lost: behaviour \"scripted_capture\" does not declare "
+            "outcome \"lost\" (it declares: succeeded, no_frame)\n"
+            "m.yaml:6:9: states.a.on: outcome \"no_frame\" of behaviour \"scripted_capture\" "
+            "has no transition\n");
 }
 
 }  // namespace

@@ -520,5 +520,94 @@ TEST(Transitions, MissionTimeAdvancesByTheTick) {
   EXPECT_DOUBLE_EQ(h.recorder.events.back().t_s, 2.0 + 0.1 * 5);
 }
 
+// Counts its updates on the blackboard; may refuse to start.
+class CountingService : public Service {
+ public:
+  explicit CountingService(bool fail_start) : fail_start_(fail_start) {}
+  void start(Context&) override {
+    if (fail_start_) throw std::runtime_error("no laser");
+  }
+  void update(Context& ctx) override { ctx.blackboard().set("tour.updates", ++updates_); }
+  void stop(Context&) override { ++stops; }
+  int stops = 0;
+
+ private:
+  bool fail_start_;
+  long long updates_ = 0;
+};
+
+// Records what the service had published when it ticked.
+class UpdateProbe : public Behaviour {
+ public:
+  explicit UpdateProbe(std::vector<long long>* seen) : seen_(seen) {}
+  void start(Context&) override {}
+  std::optional<Outcome> tick(Context& ctx) override {
+    seen_->push_back(ctx.blackboard().get<long long>("tour.updates").value_or(-1));
+    if (seen_->size() < 3) return std::nullopt;
+    return Outcome{"succeeded", ""};
+  }
+
+ private:
+  std::vector<long long>* seen_;
+};
+
+TEST(Transitions, ServicesUpdateEveryTickBeforeTheBehaviour) {
+  Harness h({"rabbit"});
+  std::vector<long long> seen;
+  h.catalog.add("probe", {"succeeded"}, {}, [&seen](const Params&, const RunContext&) {
+    return std::make_shared<UpdateProbe>(&seen);
+  });
+  auto service = std::make_shared<CountingService>(false);
+  h.services.push_back({"localization", service, Params{}});
+  h.load(R"(initial: probe
+states:
+  probe:
+    behaviour: probe
+    on: {succeeded: finish, failed: abort}
+)");
+  h.build();
+  EXPECT_EQ(h.run(), TourOutcome::completed);
+  EXPECT_EQ(seen, (std::vector<long long>{1, 2, 3}));
+  EXPECT_EQ(service->stops, 1);
+}
+
+TEST(Transitions, ServiceThatCannotStartAbortsBeforeAnyState) {
+  Harness h({"rabbit"});
+  h.services.push_back({"localization", std::make_shared<CountingService>(true), Params{}});
+  h.load_default();
+  h.build();
+  EXPECT_EQ(h.run(), TourOutcome::aborted);
+  EXPECT_TRUE(h.recorder.events.empty());
+  EXPECT_EQ(h.executor->abort_reason(), "service localization failed to start: no laser");
+  EXPECT_EQ(h.behaviour("visit/navigate").runs(), 0);
+}
+
+// A base that notes the times it was updated with and its safe stops.
+class RecordingBase : public BaseDriver {
+ public:
+  void update(double t_s) override { times.push_back(t_s); }
+  void safe_stop() override { ++safe_stops; }
+  void command_velocity(double, double) override {}
+  Odometry odometry() const override { return {}; }
+  std::vector<double> times;
+  int safe_stops = 0;
+};
+
+TEST(Transitions, DriversGetMissionTimeAndAreSafeStoppedAtTheEnd) {
+  Harness h({"rabbit"});
+  DriverSet drivers;
+  auto base = std::make_shared<RecordingBase>();
+  drivers.base = base;
+  h.run_context.drivers = &drivers;
+  h.script("navigate", "succeeded", 3);
+  h.load_default();
+  h.build();
+  EXPECT_EQ(h.run(), TourOutcome::completed);
+  ASSERT_EQ(base->times.size(), 8u);  // 3 navigate ticks + one for each later leaf
+  EXPECT_DOUBLE_EQ(base->times.front(), 0.05);
+  EXPECT_DOUBLE_EQ(base->times.back(), 0.40);
+  EXPECT_EQ(base->safe_stops, 1);
+}
+
 }  // namespace
 }  // namespace projtour::testing

@@ -27,7 +27,12 @@ TEST(MrptSensor, AbsentSerialDeviceIsAnErrorNamingThePort) {
   } catch (const PluginError& e) {
     const std::string message = e.what();
     EXPECT_NE(message.find("/dev/ttyProjtourAbsent0"), std::string::npos) << message;
-    EXPECT_NE(message.find("CHokuyoURG"), std::string::npos) << message;
+    EXPECT_NE(message.find("mrpt_sensor: cannot open CHokuyoURG (COM_port_LIN = "
+                           "/dev/ttyProjtourAbsent0) from [LASER_2D] of " +
+                           ini.string() +
+                           ": Error trying to open the serial port /dev/ttyProjtourAbsent0"),
+              std::string::npos)
+        << message;
   }
 }
 

@@ -232,6 +232,33 @@ TEST(SimCamera, SeesTheSignAtItsDistanceDeterministically) {
   EXPECT_GT(sign_pixels(a[0], 800, 1200), 20000);
 }
 
+TEST(SimCamera, DepthPixelsLandOnTheSignThroughTheCaptureConvention) {
+  Rig rig(1, {2.0, 0.0, 0.0});
+  rig.world.depth_noise = false;
+  ASSERT_NEAR(rig.mission.robot.camera.depth_to_color_m.x(), 0.05, 1e-12);
+  SimWorld& w = rig.make();
+  w.advance(0.0);
+  const DepthFrame f = *w.grab();
+  // Capture's convention: p_camera = p_depth + depth_to_color_m, then the camera's pose.
+  const Eigen::Isometry3d T_map_camera = w.true_T_map_camera();
+  int on_sign = 0;
+  for (int v = 0; v < f.height; v += 8) {
+    for (int u = 0; u < f.width; u += 8) {
+      if (f.at(u, v) == 0) continue;
+      const Eigen::Vector3d p_depth =
+          f.intrinsics.unproject(Eigen::Vector2d(u, v)) * f.at(u, v) * 1e-3;
+      const Eigen::Vector3d p_map =
+          T_map_camera * (p_depth + rig.mission.robot.camera.depth_to_color_m);
+      if (std::abs(p_map.y()) < 0.15 && std::abs(p_map.z() - 0.9) < 0.1 && p_map.x() < 2.995) {
+        // On the board's front face (x = 2.99) to within the 1 mm output step and quantisation.
+        EXPECT_NEAR(p_map.x(), 2.99, 0.004) << u << "," << v;
+        ++on_sign;
+      }
+    }
+  }
+  EXPECT_GT(on_sign, 50);
+}
+
 TEST(SimFaults, TargetMissingAndOccluder) {
   auto frame_with = [](std::vector<FaultSpec> faults) {
     Rig rig(1, {2.0, 0.0, 0.0});
@@ -399,6 +426,8 @@ TEST(SimPlugin, ProvidesFiveDriversSharingOneWorld) {
   PluginRegistry registry;
   registry.load_library(std::filesystem::path(PROJTOUR_PLUGIN_BUILD_DIR) / "libprojtour_sim.so");
   Rig rig(1, {2.0, 0.0, 0.0});
+  rig.run.run_dir = std::filesystem::temp_directory_path() / "projtour_test_sim_run";
+  std::filesystem::remove_all(rig.run.run_dir);
   std::vector<std::shared_ptr<Driver>> drivers;
   for (const char* kind :
        {"sim_base", "sim_laser", "sim_pan_tilt", "sim_depth_camera", "sim_projector"}) {
@@ -418,6 +447,15 @@ TEST(SimPlugin, ProvidesFiveDriversSharingOneWorld) {
     for (const auto& d : drivers) d->update(0.1 * k);  // every driver, same t: one step
   }
   EXPECT_NEAR(truth->true_T_map_base().translation().x(), 2.0 + 0.2 * 1.0, 0.05);
+  // The projector's log goes to the run directory, one JSON object a line.
+  auto projector = std::dynamic_pointer_cast<ProjectorDriver>(drivers[4]);
+  ASSERT_TRUE(projector);
+  projector->blank();
+  std::ifstream log(rig.run.run_dir / "sim_projector_log.jsonl");
+  std::string line;
+  ASSERT_TRUE(std::getline(log, line));
+  EXPECT_NE(line.find("\"event\": \"blank\""), std::string::npos) << line;
+  EXPECT_NE(line.find("\"base_moving\": true"), std::string::npos) << line;
 }
 
 }  // namespace

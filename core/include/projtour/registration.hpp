@@ -40,8 +40,8 @@ OrganizedCloud organized_cloud(const DepthFrame& frame,
                                double min_range_m = 0.0,
                                double max_range_m = std::numeric_limits<double>::infinity());
 
-// Only the points within `radius_m` of `centre_camera` (camera frame), in the smallest window
-// of the image that holds the sphere's projection. Cheaper than organized_cloud + a filter,
+// Only the points within `radius_m` of `centre_camera` (camera frame), in the window of the
+// image bounding the sphere's projection. Cheaper than organized_cloud + a filter,
 // because pixels outside the window are never touched.
 OrganizedCloud crop_sphere(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
                            const Eigen::Vector3d& centre_camera, double radius_m);
@@ -86,11 +86,13 @@ struct IcpOptions {
 
 struct RegistrationResult {
   Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
-  bool converged = false;        // enough correspondences at every stage
-  int iterations = 0;            // over all stages (and hypotheses)
-  int hypotheses = 1;            // schedules run: 1, or more when the first fit was poor
-  double inlier_fraction = 0.0;  // of the model points facing the camera that land on the image
-  double rmse_mm = 0.0;          // point-to-plane, over the inliers
+  bool converged = false;  // enough correspondences at every stage
+  int iterations = 0;      // over all stages (and hypotheses)
+  int hypotheses = 1;      // schedules run: 1, or more when the first fit was poor
+  // Of the model points that face the camera, are not hidden behind the model's own parts and
+  // land in the scene window: those with a scene point within inlier_distance_m.
+  double inlier_fraction = 0.0;
+  double rmse_mm = 0.0;  // point-to-plane, over the inliers
   std::size_t inliers = 0;
   std::size_t scene_points = 0;  // valid points the registration saw
   double time_ms = 0.0;
@@ -121,7 +123,8 @@ RegistrationResult align_projective_icp(const IcpModel& model, const OrganizedCl
                                         const IcpOptions& options = {});
 
 // The same from the frame: crops to the model's bounding sphere plus `crop_margin_m` around the
-// guess, then aligns; time_ms includes the crop.
+// guess, then aligns; time_ms includes the crop. This is the call for re-aligning every frame
+// (tracking): keep one IcpModel per target and pass the last pose as the guess.
 RegistrationResult align_projective_icp(const IcpModel& model, const DepthFrame& frame,
                                         const Eigen::Vector3d& depth_to_color_m,
                                         const Eigen::Isometry3d& T_camera_model_guess,

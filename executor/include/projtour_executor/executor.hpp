@@ -88,7 +88,7 @@ class Executor {
   std::size_t done_count() const { return done_.size(); }
 
  private:
-  void start_services();
+  bool start_services();
   void emit(EventType type, const StateSpec& state, const std::string& outcome = "",
             const std::string& message = "", const std::string& to = "");
   void enter(const StateSpec& state);

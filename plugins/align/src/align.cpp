@@ -33,7 +33,7 @@ struct Settings {
   double max_rmse_mm = 5.0;
   double inlier_distance_m = 0.006;
   long long pcl_max_iterations = 50;
-  double pcl_max_correspondence_m = 0.1;
+  double pcl_max_correspondence_m = 0.05;
   bool draw = true;
 };
 
@@ -215,7 +215,7 @@ const projtour_param_desc kAlignParams[] = {
     {"inlier_distance_m", "number", "0.006",
      "a visible model point within this of its scene point is an inlier"},
     {"pcl_max_iterations", "integer", "50", "pcl_icp / pcl_gicp: iteration limit"},
-    {"pcl_max_correspondence_m", "number", "0.1", "pcl_icp / pcl_gicp: correspondence distance"},
+    {"pcl_max_correspondence_m", "number", "0.05", "pcl_icp / pcl_gicp: correspondence distance"},
     {"draw", "boolean", "true", "write alignment.png into the target's folder"},
 };
 const char* const kAlignOutcomes[] = {"succeeded", "poor_fit", "no_target"};

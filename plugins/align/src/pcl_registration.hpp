@@ -14,7 +14,8 @@ const char* to_string(PclMethod method);
 
 struct PclOptions {
   int max_iterations = 50;
-  double max_correspondence_m = 0.1;
+  // Wider lets them start farther off but drags the fit toward the floor in the crop.
+  double max_correspondence_m = 0.05;
   double transformation_epsilon = 1e-8;
   // Model points handed to PCL: the same uniform prefix the projective ICP's last stage uses.
   std::size_t max_model_points = 2500;

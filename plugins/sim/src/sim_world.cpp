@@ -349,8 +349,10 @@ struct SimWorld::Impl {
   Eigen::Isometry3d T_map_base() const { return isometry_from_pose2d(true_pose()); }
 
   Eigen::Isometry3d T_map_depth() const {
+    // Capture builds its cloud as p_camera = p_depth + depth_to_color_m (the paper's eq. 2), so
+    // the depth optical frame sits at +depth_to_color_m in the camera frame.
     Eigen::Isometry3d T_camera_depth = Eigen::Isometry3d::Identity();
-    T_camera_depth.translation() = -mission->robot.camera.depth_to_color_m;
+    T_camera_depth.translation() = mission->robot.camera.depth_to_color_m;
     return T_map_base() * head_true->T_base_camera(q_true) * T_camera_depth;
   }
 
