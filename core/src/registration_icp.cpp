@@ -18,7 +18,7 @@ std::vector<IcpStage> IcpOptions::default_stages() {
   // its surface several centimetres away; the fine levels then settle on the noise floor.
   return {
       {3, 250, 2, 0.15, 6, true}, {3, 250, 2, 0.10, 6},  {2, 500, 1, 0.04, 5},
-      {1, 1000, 0, 0.02, 4},      {0, 5000, 0, 0.01, 3},
+      {1, 1000, 0, 0.02, 4},      {0, 6000, 0, 0.01, 2},
   };
 }
 
@@ -271,10 +271,8 @@ void measure_quality(const IcpModel& model, const Level& level, const Projector&
   grid.width = ((level.u0 + level.width + 3) >> 2) - grid.u0;
   grid.height = ((level.v0 + level.height + 3) >> 2) - grid.v0;
   const std::vector<float> z_buffer = model_depth_buffer(model, grid, projector, R, t);
-  const std::size_t n_model = std::min<std::size_t>(
-      model.points().size(),
-      options.stages.empty() ? model.points().size()
-                             : static_cast<std::size_t>(options.stages.back().max_model_points));
+  // A few thousand points pin a fraction down to about a percent; more only cost time.
+  const std::size_t n_model = std::min<std::size_t>(model.points().size(), 3000);
   const float inlier_m = static_cast<float>(options.inlier_distance_m);
   const float hidden_m = std::max(0.01f, 2.0f * inlier_m);
   std::size_t candidates = 0, inliers = 0;
@@ -384,8 +382,8 @@ RegistrationResult run_schedule(const IcpModel& model, const std::vector<Level>&
         break;
       }
       T = apply_twist(xi, T);
-      if (xi.tail<3>().norm() < options.min_update_m &&
-          xi.head<3>().norm() < options.min_update_rad)
+      if (xi.tail<3>().norm() < options.min_update_m * level.scale &&
+          xi.head<3>().norm() < options.min_update_rad * level.scale)
         break;
     }
   }

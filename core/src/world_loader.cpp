@@ -10,8 +10,8 @@ using loader::read_number;
 using loader::Sign;
 
 const std::vector<std::string> kFaultTypes = {
-    "frame_dropout", "target_missing",    "occluder",         "blocked_path",
-    "kidnap",        "camera_disconnect", "projector_failure"};
+    "frame_dropout", "target_missing",    "occluder",          "blocked_path",
+    "kidnap",        "camera_disconnect", "projector_failure", "target_nudge"};
 
 std::vector<std::string> target_ids(const MissionSpec& mission) {
   std::vector<std::string> ids;

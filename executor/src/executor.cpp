@@ -169,15 +169,8 @@ void Executor::start_at(const std::string& state_path, std::size_t target_index)
   for (std::size_t i = 0; i + 1 < chain.size(); ++i) {
     const StateSpec* s = chain[i];
     if (s->for_each_target) {
-      first_target_ = target_index;
-      const std::size_t chosen = *choose_next_target();
-      current_target_ = chosen;
-      visit_state_ = s;
-      retries_used_.clear();
-      record_ = TargetRecord{};
-      record_.index = chosen;
-      record_.id = run_.mission->targets[chosen].id;
-      run_.blackboard->erase_prefix("target.");
+      open_visit(*s, target_index);
+      continue;
     }
     active_.push_back(s);
     emit(EventType::enter, *s);
@@ -249,19 +242,14 @@ std::optional<std::size_t> Executor::choose_next_target() {
   return std::nullopt;
 }
 
-void Executor::begin_visit(const StateSpec& for_each) {
-  const auto next = choose_next_target();
-  if (!next) {
-    composite_done(for_each);
-    return;
-  }
-  current_target_ = *next;
+void Executor::open_visit(const StateSpec& for_each, std::size_t index) {
+  current_target_ = index;
   visit_state_ = &for_each;
   retries_used_.clear();
   run_.blackboard->erase_prefix("target.");
   record_ = TargetRecord{};
-  record_.index = *next;
-  record_.id = run_.mission->targets[*next].id;
+  record_.index = index;
+  record_.id = run_.mission->targets[index].id;
   if (!run_.run_dir.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(run_.run_dir / "targets" / record_.id, ec);
@@ -271,6 +259,15 @@ void Executor::begin_visit(const StateSpec& for_each) {
   }
   active_.push_back(&for_each);
   emit(EventType::enter, for_each);
+}
+
+void Executor::begin_visit(const StateSpec& for_each) {
+  const auto next = choose_next_target();
+  if (!next) {
+    composite_done(for_each);
+    return;
+  }
+  open_visit(for_each, *next);
   enter(*for_each.child(for_each.initial));
 }
 

@@ -242,10 +242,10 @@ int run_localize_command(int argc, char** argv) {
   const PoseEstimate2D final_estimate = localizer.estimate();
   std::fprintf(stderr,
                "localize: %zu scans, converged for %zu (%.0f%%), final std %.3f m %.2f deg, "
-               "%.2f ms per update with %zu particles\n",
+               "scans on the map's walls %.0f%%, %.2f ms per update with %zu particles\n",
                scans, converged_scans, 100.0 * converged_scans / scans,
                position_std_m(final_estimate), rad_to_deg(yaw_std_rad(final_estimate)),
-               1000.0 * update_s / scans, localizer.particle_count());
+               100.0 * localizer.scan_fit(), 1000.0 * update_s / scans, localizer.particle_count());
   return 0;
 }
 

@@ -2,6 +2,9 @@
 // the measured joint angles) -> projector pixels; the content's corners go there by a homography
 // on the ideal pinhole image and the projector's lens distortion by inverse mapping; the warped
 // frame is shown for the dwell time of mission time and the projector is blanked afterwards.
+// With `track`, each new depth frame re-aligns the target while the content is shown, and the
+// frame is re-warped (the projector stays lit) when the Model Points move past a threshold.
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
@@ -12,9 +15,14 @@
 #include "projtour/kinematics.hpp"
 #include "projtour/plugin_author.hpp"
 #include "projtour/projection.hpp"
+#include "tracker.hpp"
 
 namespace projtour {
 namespace {
+
+using project::PoseTracker;
+using project::read_track_settings;
+using project::TrackSettings;
 
 std::string fmt_quad(const Quad2d& q) {
   std::ostringstream s;
@@ -29,11 +37,10 @@ class Project : public Behaviour {
   Project(const Params& params, const RunContext& run)
       : dwell_param_s_(params.number("dwell_s")),
         planarity_warn_mm_(params.number("planarity_warn_mm")),
-        min_area_px2_(params.number("min_area_px2")) {
+        min_area_px2_(params.number("min_area_px2")),
+        track_(read_track_settings(params)),
+        tracker_(track_) {
     if (run.mission == nullptr) throw std::invalid_argument("project needs the mission's robot");
-    if (params.boolean("track")) {
-      throw std::invalid_argument("project: `track` (live re-alignment) is not available yet");
-    }
     kinematics_ = std::make_unique<HeadKinematics>(run.mission->robot);
     // The undistortion maps depend only on the projector: computed once for the whole tour.
     warper_ = std::make_unique<ContentWarper>(run.mission->robot.projector.intrinsics);
@@ -45,9 +52,11 @@ class Project : public Behaviour {
     paused_ = false;
     paused_total_s_ = 0.0;
     content_.reset();
+    tracking_ = false;
     if (ctx.target == nullptr) throw std::runtime_error("project runs only inside a visit");
     early_ = prepare(ctx);
     if (early_) return;
+    if (track_.enabled) start_tracking(ctx);
     t_start_s_ = ctx.now_s();
     ctx.blackboard().set<double>(keys::kProjectedSeconds, 0.0);
     show_current(ctx, /*force=*/true);
@@ -75,6 +84,7 @@ class Project : public Behaviour {
       s << std::fixed << "projected on " << ctx.target->id << " for " << dwell_s_ << " s";
       return Outcome{"succeeded", s.str()};
     }
+    if (tracking_) track(ctx);
     if (content_->is_video()) show_current(ctx, /*force=*/false);
     return std::nullopt;
   }
@@ -126,8 +136,9 @@ class Project : public Behaviour {
           project_model_points(target.model_points, T_projector_camera * *guess, projector);
       if (before.in_front) ctx.blackboard().set<Quad2d>(keys::kPixelsBeforeAlign, before.pixels);
     }
+    shown_T_projector_model_ = T_projector_camera * *T_camera_model;
     const ProjectedQuad quad =
-        project_model_points(target.model_points, T_projector_camera * *T_camera_model, projector);
+        project_model_points(target.model_points, shown_T_projector_model_, projector);
     if (quad.in_front) ctx.blackboard().set<Quad2d>(keys::kPixelsAfterAlign, quad.pixels);
     if (!quad.on_screen) return Outcome{"off_screen", who + quad.problem};
 
@@ -154,6 +165,90 @@ class Project : public Behaviour {
     return std::nullopt;
   }
 
+  void start_tracking(Context& ctx) {
+    const std::string who = "target " + ctx.target->id + ": ";
+    if (!ctx.drivers().depth_camera) {
+      ctx.log().warning(who + "no depth camera driver: projecting without tracking");
+      return;
+    }
+    try {
+      tracker_.start(ctx.target->model,
+                     ctx.blackboard().require<Eigen::Isometry3d>(keys::kTCameraModel));
+    } catch (const std::exception& e) {
+      ctx.log().warning(who + "cannot track (" + e.what() + "): projecting without tracking");
+      return;
+    }
+    tracking_ = true;
+    rejected_in_a_row_ = 0;
+  }
+
+  // One camera frame, if a new one is ready: re-align, and re-warp when the quad has moved.
+  void track(Context& ctx) {
+    const std::string who = "target " + ctx.target->id + ": ";
+    std::optional<DepthFrame> frame;
+    try {
+      frame = ctx.drivers().depth_camera->grab();
+    } catch (const DriverError& e) {
+      ctx.log().warning(who + "depth camera: " + e.what() + "; tracking stops");
+      tracking_ = false;
+      return;
+    }
+    if (!frame) return;
+    const auto result = tracker_.update(*frame, ctx.robot().camera.depth_to_color_m);
+    if (!result) return;
+    if (!tracker_.accepted(*result)) {
+      // One bad frame is noise; many in a row mean the target is gone or occluded.
+      if (++rejected_in_a_row_ == kRejectedFramesToWarn) {
+        std::ostringstream s;
+        s.precision(2);
+        s << who << kRejectedFramesToWarn << " frames in a row failed the tracking gate (inlier "
+          << "fraction " << result->inlier_fraction << " < " << track_.min_inlier_fraction
+          << "); showing the last good warp";
+        ctx.log().warning(s.str());
+      }
+      return;
+    }
+    rejected_in_a_row_ = 0;
+    const Eigen::Isometry3d& T_camera_model = tracker_.T_camera_model();
+    ctx.blackboard().set<Eigen::Isometry3d>(keys::kTCameraModel, T_camera_model);
+    const Eigen::Isometry3d T_projector_model =
+        kinematics_->T_projector_camera(ctx.drivers().pan_tilt->measured()) * T_camera_model;
+    const project::QuadMotion motion = project::model_points_motion(
+        ctx.target->model_points, T_projector_model, shown_T_projector_model_);
+    if (motion.max_point_m * 1e3 <= track_.threshold_mm &&
+        rad_to_deg(motion.rotation_rad) <= track_.threshold_deg) {
+      return;
+    }
+    rewarp(ctx, T_projector_model);
+  }
+
+  void rewarp(Context& ctx, const Eigen::Isometry3d& T_projector_model) {
+    const auto started = std::chrono::steady_clock::now();
+    const ProjectedQuad quad = project_model_points(ctx.target->model_points, T_projector_model,
+                                                    ctx.robot().projector.intrinsics);
+    const std::string problem =
+        quad.on_screen ? quad_problem(quad.ideal_pixels, min_area_px2_) : quad.problem;
+    if (!problem.empty()) {
+      // Keep the last good frame up: a partial quad would put content off the target.
+      if (problem != rewarp_problem_) {
+        ctx.log().warning("target " + ctx.target->id + ": not re-warping (" + problem + ")");
+      }
+      rewarp_problem_ = problem;
+      return;
+    }
+    rewarp_problem_.clear();
+    warper_->set_target(content_->size(), quad);
+    last_frame_ = warper_->warp(content_->frame_at(elapsed_s(ctx), nullptr));
+    ctx.drivers().projector->show(last_frame_);
+    shown_T_projector_model_ = T_projector_model;
+    ctx.blackboard().set<Quad2d>(keys::kPixelsAfterAlign, quad.pixels);
+    auto& stats = tracker_.stats();
+    ++stats.rewarps;
+    stats.rewarp_ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started)
+            .count());
+  }
+
   double elapsed_s(const Context& ctx) const { return ctx.now_s() - t_start_s_ - paused_total_s_; }
 
   void show_current(Context& ctx, bool force) {
@@ -168,6 +263,10 @@ class Project : public Behaviour {
   void finish(Context& ctx) {
     if (!showing_) return;
     showing_ = false;
+    if (tracking_) {
+      ctx.log().info("project " + ctx.target->id + " tracking: " + tracker_.stats().summary());
+      tracking_ = false;
+    }
     const double end_s = paused_ ? paused_at_s_ : ctx.now_s();
     const double shown_s = std::min(end_s - t_start_s_ - paused_total_s_, dwell_s_);
     ctx.blackboard().set<double>(keys::kProjectedSeconds, std::max(0.0, shown_s));
@@ -177,6 +276,14 @@ class Project : public Behaviour {
   double dwell_param_s_;
   double planarity_warn_mm_;
   double min_area_px2_;
+  TrackSettings track_;
+  PoseTracker tracker_;
+  bool tracking_ = false;
+  static constexpr int kRejectedFramesToWarn = 15;
+  int rejected_in_a_row_ = 0;
+  std::string rewarp_problem_;
+  // The model in the projector frame the frame on show was warped with.
+  Eigen::Isometry3d shown_T_projector_model_ = Eigen::Isometry3d::Identity();
   std::unique_ptr<HeadKinematics> kinematics_;
   std::unique_ptr<ContentWarper> warper_;
   std::unique_ptr<ContentSource> content_;
@@ -197,9 +304,10 @@ int validate(const void* params_ptr, char* error, size_t error_size) {
                                 error_size);
     return 1;
   }
-  if (params.boolean("track")) {
-    plugin_detail::copy_message("track (live re-alignment) is not available yet", error,
-                                error_size);
+  try {
+    read_track_settings(params);
+  } catch (const std::exception& e) {
+    plugin_detail::copy_message(e.what(), error, error_size);
     return 1;
   }
   return 0;
@@ -209,6 +317,15 @@ const projtour_param_desc kParams[] = {
     {"dwell_s", "number", "-1", "seconds to show the content; negative = the target's dwell_s"},
     {"track", "boolean", "false",
      "re-capture and re-align while showing, re-warping when the pose moves"},
+    {"track_threshold_mm", "number", "1.0",
+     "track: re-warp when a Model Point moves more than this (projector frame)"},
+    {"track_threshold_deg", "number", "0.2", "track: ... or the target turns more than this"},
+    {"track_min_inlier_fraction", "number", "0.6",
+     "track: a frame whose fit has fewer inliers is skipped"},
+    {"track_model_spacing_m", "number", "0.003",
+     "track: spacing of the points resampled on the model (align's model_spacing_m)"},
+    {"track_crop_margin_m", "number", "0.05",
+     "track: each frame is cropped to the model's bounding sphere plus this"},
     {"planarity_warn_mm", "number", "5",
      "warn when the Model Points lie farther than this from a common plane"},
     {"min_area_px2", "number", "100", "smaller projected quadrilaterals count as zero area"}};

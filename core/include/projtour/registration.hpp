@@ -69,7 +69,8 @@ struct IcpOptions {
   double max_normal_angle_deg = 60.0;  // between model and scene normals
   // Tukey biweight scale as a multiple of the stage's max_distance_m (<= 0: plain least squares).
   double tukey_scale = 1.0;
-  // A stage stops early when an update moves the model by less than this.
+  // A stage stops early when an update moves the model by less than this, times the level's
+  // pixel size (2^level): a coarse level cannot resolve finer steps anyway.
   double min_update_m = 1e-4;
   double min_update_rad = 2e-4;
   // Quality is measured at full resolution: a visible model point is an inlier when its scene

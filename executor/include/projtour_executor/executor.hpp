@@ -93,6 +93,8 @@ class Executor {
             const std::string& message = "", const std::string& to = "");
   void enter(const StateSpec& state);
   void enter_leaf(const StateSpec& state);
+  // Starts the visit of target `index`: per-target state reset, its directory, the enter event.
+  void open_visit(const StateSpec& for_each, std::size_t index);
   void begin_visit(const StateSpec& for_each);
   std::optional<std::size_t> choose_next_target();
   void finish_leaf(Outcome outcome);

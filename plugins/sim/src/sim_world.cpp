@@ -124,6 +124,8 @@ struct SimWorld::Impl {
     int frames_here = 0;
     int shows_here = 0;
     bool kidnapped = false;
+    std::optional<double> first_shown_s;  // the projector first lit while this target was active
+    bool nudged = false;
   };
   struct Box2 {
     Eigen::Vector2d lo, hi;
@@ -137,6 +139,7 @@ struct SimWorld::Impl {
 
   std::vector<Target> targets;
   std::vector<Box2> obstacles;  // blocked_path boxes, for the bumper
+  SceneBuilder fixed_parts;     // floor, walls and obstacles: all the scene but the targets
   Scene scene;
   std::unique_ptr<DepthRenderer> depth_renderer;
   KinectNoiseParams kinect;
@@ -346,6 +349,38 @@ struct SimWorld::Impl {
     }
   }
 
+  // The camera's scene is rebuilt whenever a target moves (a BVH cannot move one object).
+  void rebuild_scene() {
+    SceneBuilder builder = fixed_parts;
+    for (const Target& t : targets) {
+      if (!t.missing) builder.add_mesh(t.mesh_true, t.T_map_model, t.object_id);
+    }
+    scene = builder.build();
+  }
+
+  void nudge_if_due() {
+    Target* t = active();
+    if (t == nullptr || t->nudged || !t->first_shown_s) return;
+    const FaultSpec* f = fault(t->spec->id, "target_nudge");
+    if (f == nullptr || t_s + 1e-9 < *t->first_shown_s + fault_value(*f, "after_s", 1.0)) return;
+    t->nudged = true;
+    Eigen::Vector3d shift_map;
+    if (f->values.count("dx_m") || f->values.count("dy_m")) {
+      shift_map = {fault_value(*f, "dx_m", 0.0), fault_value(*f, "dy_m", 0.0), 0.0};
+    } else {
+      const double distance_m = fault_value(*f, "distance_m", 0.02);
+      const double direction_rad = deg_to_rad(fault_value(*f, "direction_deg", 90.0));
+      shift_map = {distance_m * std::cos(direction_rad), distance_m * std::sin(direction_rad), 0.0};
+    }
+    t->T_map_model.pretranslate(shift_map);
+    t->T_map_model.rotate(
+        Eigen::AngleAxisd(deg_to_rad(fault_value(*f, "yaw_deg", 0.0)), Eigen::Vector3d::UnitZ()));
+    SceneBuilder alone;
+    alone.add_mesh(t->mesh_true, t->T_map_model, t->object_id);
+    t->alone = alone.build();
+    rebuild_scene();
+  }
+
   Eigen::Isometry3d T_map_base() const { return isometry_from_pose2d(true_pose()); }
 
   Eigen::Isometry3d T_map_depth() const {
@@ -430,7 +465,7 @@ SimWorld::SimWorld(const RunContext& run) : impl_(std::make_unique<Impl>()) {
   }
 
   // Targets: true poses and true surfaces.
-  SceneBuilder builder;
+  SceneBuilder& builder = w.fixed_parts;
   builder.set_floor(0.0, kFloorId);
   if (w.grid) builder.add_occupancy_walls(*w.grid, 2.0, kWallId);
   std::map<std::string, TriangleMesh> meshes;  // by model file: targets may share one
@@ -468,7 +503,6 @@ SimWorld::SimWorld(const RunContext& run) : impl_(std::make_unique<Impl>()) {
     alone.add_mesh(t.mesh_true, t.T_map_model, t.object_id);
     t.alone = alone.build();
     t.missing = w.fault(spec.id, "target_missing") != nullptr;
-    if (!t.missing) builder.add_mesh(t.mesh_true, t.T_map_model, t.object_id);
 
     if (const FaultSpec* f = w.fault(spec.id, "occluder")) {
       // A board hanging above the laser plane between the target and its stand-off pose.
@@ -508,7 +542,7 @@ SimWorld::SimWorld(const RunContext& run) : impl_(std::make_unique<Impl>()) {
     }
     w.targets.push_back(std::move(t));
   }
-  w.scene = builder.build();
+  w.rebuild_scene();
   w.depth_renderer = std::make_unique<DepthRenderer>(robot.camera.intrinsics);
   w.kinect.axial_noise = w.world.depth_noise;
   w.kinect.min_depth_m = robot.camera.min_range_m;
@@ -549,6 +583,7 @@ void SimWorld::advance(double t_s) {
   w.t_s = t_s;
   if (dt_total <= 0.0) w.step_head(0.0);
   w.kidnap_if_arrived();
+  w.nudge_if_due();
 
   const LaserSpec& laser = w.mission->robot.laser;
   if (t_s + 1e-9 >= w.next_scan_s) {
@@ -693,6 +728,7 @@ void SimWorld::show(const cv::Mat& frame_bgr) {
       }
     }
     ++here->shows_here;
+    if (!here->first_shown_s) here->first_shown_s = w.t_s;
   }
   w.lit = true;
   w.log_projector(true);

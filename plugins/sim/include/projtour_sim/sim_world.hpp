@@ -15,6 +15,12 @@
 //   kidnap             distance_m (1.0)      the true pose jumps when the robot arrives
 //   camera_disconnect  after_frames (0)      grab() throws after that many frames
 //   projector_failure  after_shows (0)       show() throws after that many shows
+//   target_nudge       after_s (1.0), distance_m (0.02), direction_deg (90), yaw_deg (0)
+//                      the true target moves once, after_s seconds after the projector first
+//                      lit it (so during the dwell): shifted that far in the map along
+//                      direction_deg (counter-clockwise from the map's +x; dx_m/dy_m instead
+//                      give the shift directly) and turned yaw_deg about its own z axis. The
+//                      camera and the referee see the moved target from then on.
 // Faults other than the static obstacles (target_missing, occluder, blocked_path) act while
 // their target is the one the robot is at: the nearest target within its stand-off + 1.5 m.
 #include <Eigen/Geometry>
