@@ -34,7 +34,7 @@ namespace {
 
 // Endpoints within this of an obstacle count as fitting the map.
 constexpr double kFitDistanceM = 0.2;
-constexpr double kFitSmoothing = 0.3;  // weight of the newest scan
+constexpr double kFitSmoothing = 0.5;  // weight of the newest scan
 constexpr std::size_t kFitRays = 60;
 
 // The grid's lower-left corner and cell size locate points in `wall_distance_m`.

@@ -96,6 +96,16 @@ void Executor::restore(std::vector<TargetRecord> done, std::optional<std::size_t
     records_.push_back(std::move(r));
   }
   first_target_ = first_target;
+  publish_done_targets();
+}
+
+// `next` reads which targets are done from the blackboard (it never sees the executor).
+void Executor::publish_done_targets() {
+  if (run_.blackboard == nullptr) return;
+  std::vector<std::string> ids;
+  ids.reserve(records_.size());
+  for (const auto& r : records_) ids.push_back(r.id);
+  run_.blackboard->set(keys::kDoneTargets, std::move(ids));
 }
 
 Context Executor::make_context(const StateSpec* leaf) const {
@@ -393,6 +403,7 @@ void Executor::end_visit(const std::string& outcome, const std::string& reason) 
   record_.retries = retries_taken();
   records_.push_back(record_);
   done_.insert(record_.index);
+  publish_done_targets();
   active_.pop_back();
   emit(EventType::exit, *for_each);
   current_target_.reset();
@@ -416,6 +427,7 @@ void Executor::abort_tour(const std::string& reason) {
     record_.retries = retries_taken();
     records_.push_back(record_);
     done_.insert(record_.index);
+    publish_done_targets();
     active_.pop_back();
     emit(EventType::exit, *visit_state_);
     current_target_.reset();

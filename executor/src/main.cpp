@@ -17,7 +17,7 @@ namespace {
 const char* const kUsage =
     "usage:\n"
     "  projtour run MISSION.yaml [--dry-run] [--world W.yaml] [--seed N] [--out DIR] [--resume]\n"
-    "                            [--speed X] [--plugin-path DIR]...\n"
+    "                            [--speed X] [--plugin-path DIR]... [--watchdog-s S]\n"
     "  projtour validate MISSION.yaml [--dry-run] [--world W.yaml] [--plugin-path DIR]...\n"
     "  projtour graph MISSION.yaml [--plugin-path DIR]...\n"
     "  projtour plugins [--plugin-path DIR]...\n"
@@ -64,6 +64,9 @@ projtour::RunOptions parse_options(int argc, char** argv, const std::vector<std:
       } else if (arg == "--speed") {
         options.speed = std::stod(value());
         if (*options.speed < 0) throw UsageError{"--speed must be >= 0 (0 = as fast as possible)"};
+      } else if (arg == "--watchdog-s") {
+        options.watchdog_s = std::stod(value());
+        if (options.watchdog_s <= 0) throw UsageError{"--watchdog-s must be > 0"};
       } else if (arg == "--plugin-path") {
         options.plugin_paths.emplace_back(value());
       } else if (arg.rfind("--", 0) != 0 && plugin_paths_only == nullptr && !have_mission) {
@@ -96,10 +99,10 @@ int main(int argc, char** argv) {
   const std::string command = argv[1];
   try {
     if (command == "run") {
-      const auto options = parse_options(
-          argc, argv,
-          {"--dry-run", "--world", "--seed", "--out", "--resume", "--speed", "--plugin-path"},
-          nullptr);
+      const auto options = parse_options(argc, argv,
+                                         {"--dry-run", "--world", "--seed", "--out", "--resume",
+                                          "--speed", "--plugin-path", "--watchdog-s"},
+                                         nullptr);
       return projtour::run_command(options, std::cout, std::cerr);
     }
     if (command == "validate") {

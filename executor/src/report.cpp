@@ -39,6 +39,12 @@ Json build_report(const RunSummary& summary) {
   report.set("dry_run", summary.dry_run);
   report.set("seed", static_cast<unsigned long long>(summary.seed));
   report.set("outcome", to_string(summary.outcome));
+  if (!summary.reason.empty()) report.set("reason", summary.reason);
+  if (!summary.ignored_cancel.empty()) {
+    Json names = Json::array();
+    for (const auto& n : summary.ignored_cancel) names.push_back(Json(n));
+    report.set("ignored_cancel", names);
+  }
   Json timing = Json::object();
   timing.set("wall_s", summary.wall_s);
   timing.set("mission_s", summary.mission_s);

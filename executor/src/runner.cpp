@@ -2,19 +2,26 @@
 
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <csignal>
 #include <cstdio>
 #include <ctime>
 #include <functional>
 #include <iostream>
+#include <mutex>
 #include <thread>
 
 #include "projtour/blackboard.hpp"
+#include "projtour/blackboard_keys.hpp"
+#include "projtour/ground_truth.hpp"
 #include "projtour/logger.hpp"
 #include "projtour_executor/executor.hpp"
 #include "projtour_executor/progress.hpp"
 #include "projtour_executor/report.hpp"
+#include "projtour_executor/summary_page.hpp"
+#include "projtour_executor/tour_picture.hpp"
 
 namespace projtour {
 
@@ -95,6 +102,123 @@ class TargetDoneHook : public ExecutorObserver {
 
  private:
   std::function<void()> hook_;
+};
+
+// A behaviour whose tick never returns would leave the robot moving and the projector lit with
+// nothing in charge. The watchdog runs beside the tick loop; when one tick outlasts its limit
+// (wall time) it calls `on_hang` from its own thread, which must end the process.
+class TickWatchdog {
+ public:
+  using HangHandler = std::function<void(const std::string& state, double limit_s)>;
+  explicit TickWatchdog(HangHandler on_hang)
+      : on_hang_(std::move(on_hang)), thread_([this] { watch(); }) {}
+  ~TickWatchdog() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      quit_ = true;
+    }
+    wake_.notify_all();
+    thread_.join();
+  }
+  void tick_started(const std::string& state, double limit_s) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    state_ = state;
+    limit_s_ = limit_s;
+    deadline_ = std::chrono::steady_clock::now() +
+                std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(limit_s));
+    armed_ = true;
+    wake_.notify_all();
+  }
+  void tick_finished() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    armed_ = false;
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  void watch() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!quit_) {
+      if (!armed_) {
+        wake_.wait(lock);
+        continue;
+      }
+      if (Clock::now() < deadline_) {
+        wake_.wait_until(lock, deadline_);
+        continue;
+      }
+      const std::string state = state_;
+      const double limit_s = limit_s_;
+      lock.unlock();
+      on_hang_(state, limit_s);
+      return;
+    }
+  }
+
+  HangHandler on_hang_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool quit_ = false;
+  bool armed_ = false;
+  std::string state_;
+  double limit_s_ = 0.0;
+  Clock::time_point deadline_;
+  std::thread thread_;
+};
+
+// What tour.png shows: the estimated and (dry run) true trajectories, sampled every half second
+// of mission time, and the last path planned in each visit.
+class TourTrace : public ExecutorObserver {
+ public:
+  explicit TourTrace(const RunContext& run) : run_(run) {}
+
+  void sample() {
+    const double t_s = run_.clock->now_s();
+    if (t_s - last_sample_s_ < kSamplePeriodS) return;
+    last_sample_s_ = t_s;
+    if (auto estimate = run_.blackboard->get<PoseEstimate2D>(keys::kLocalization)) {
+      estimated_.push_back(estimate->mean);
+    }
+    if (GroundTruth* truth = run_.drivers->ground_truth()) {
+      true_.push_back(pose2d_from_isometry(truth->true_T_map_base()));
+    }
+    if (auto path = run_.blackboard->get<std::vector<Pose2D>>(keys::kPlannedPath)) {
+      visit_path_ = std::move(*path);
+    }
+  }
+  void on_target_done(const TargetRecord&) override {
+    if (!visit_path_.empty()) paths_.push_back(std::move(visit_path_));
+    visit_path_.clear();
+  }
+
+  TourPictureInput picture(const MissionSpec& mission,
+                           const std::vector<TargetRecord>& records) const {
+    TourPictureInput input;
+    input.map = run_.map;
+    input.start = mission.start;
+    input.title = mission.name;
+    for (const auto& target : mission.targets) {
+      TourPictureTarget t{target.id, pose2d_from_isometry(target.T_map_model), ""};
+      for (const auto& r : records) {
+        if (r.id == target.id) t.outcome = r.outcome;
+      }
+      input.targets.push_back(std::move(t));
+    }
+    input.planned_paths = paths_;
+    if (!visit_path_.empty()) input.planned_paths.push_back(visit_path_);
+    input.estimated_trajectory = estimated_;
+    input.true_trajectory = true_;
+    return input;
+  }
+
+ private:
+  static constexpr double kSamplePeriodS = 0.5;
+  const RunContext& run_;
+  double last_sample_s_ = -1e9;
+  std::vector<Pose2D> estimated_;
+  std::vector<Pose2D> true_;
+  std::vector<Pose2D> visit_path_;
+  std::vector<std::vector<Pose2D>> paths_;
 };
 
 }  // namespace
@@ -233,9 +357,46 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     write_file_atomically(run_dir / "checkpoint.json", checkpoint_to_json(c).dump(2) + "\n");
   };
   TargetDoneHook checkpoint_hook(write_checkpoint);
+  TourTrace trace(run);
+  executor.add_observer(&trace);
   executor.add_observer(&events);
   executor.add_observer(&progress);
   executor.add_observer(&checkpoint_hook);
+
+  auto make_summary = [&](TourOutcome outcome) {
+    RunSummary summary;
+    summary.mission = mission.name;
+    summary.dry_run = options.dry_run;
+    summary.seed = seed;
+    summary.outcome = outcome;
+    summary.wall_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+    summary.mission_s = clock.now_s();
+    summary.targets = executor.records();
+    summary.ignored_cancel = executor.ignored_cancel();
+    if (outcome == TourOutcome::aborted) summary.reason = executor.abort_reason();
+    return summary;
+  };
+  // Runs on the watchdog's thread while the tick loop is stuck inside a behaviour: the loop
+  // touches nothing the handler reads until that tick returns, which it never does.
+  TickWatchdog watchdog([&](const std::string& state, double limit_s) {
+    for (const auto& d : drivers.all()) d->safe_stop();
+    const StateSpec* spec = prepared->machine->find(state);
+    RunSummary summary = make_summary(TourOutcome::aborted);
+    char limit[32];
+    std::snprintf(limit, sizeof limit, "%.1f", limit_s);
+    summary.reason = "behaviour " + (spec != nullptr ? spec->behaviour : std::string("?")) +
+                     " in state " + state + " hung: one tick ran past " + limit + " s";
+    err << "\nprojtour: aborted: " << summary.reason << "; safe stop done\n";
+    try {
+      write_checkpoint();
+      write_file_atomically(run_dir / "report.json", build_report(summary).dump(2) + "\n");
+    } catch (const std::exception& e) {
+      err << "projtour: " << e.what() << "\n";
+    }
+    err.flush();
+    std::_Exit(1);
+  });
 
   const double speed = options.speed.value_or(options.dry_run ? 0.0 : 1.0);
   const double mission_start_s = clock.now_s();
@@ -257,7 +418,13 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
         g_resume_signal = 0;
         executor.resume();
       }
+      const std::string state = executor.active_state();
+      const StateSpec* spec = state.empty() ? nullptr : prepared->machine->find(state);
+      watchdog.tick_started(
+          state, spec != nullptr && spec->timeout_s > 0 ? spec->timeout_s : options.watchdog_s);
       executor.step();
+      watchdog.tick_finished();
+      trace.sample();
       if (speed > 0) {
         const double ahead_s = (clock.now_s() - mission_start_s) / speed;
         std::this_thread::sleep_until(pace_start + std::chrono::duration<double>(ahead_s));
@@ -272,21 +439,20 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     err << "projtour: aborted: " << executor.abort_reason() << "\n";
   }
 
-  RunSummary summary;
-  summary.mission = mission.name;
-  summary.dry_run = options.dry_run;
-  summary.seed = seed;
-  summary.outcome = executor.outcome();
-  summary.wall_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  summary.mission_s = clock.now_s();
-  summary.targets = executor.records();
+  const RunSummary summary = make_summary(executor.outcome());
   try {
     write_checkpoint();
     write_file_atomically(run_dir / "report.json", build_report(summary).dump(2) + "\n");
   } catch (const std::exception& e) {
     err << "projtour: " << e.what() << "\n";
     return 1;
+  }
+  // The pictures are for people; a failure to draw them must not change the tour's outcome.
+  try {
+    if (run.map) write_tour_picture(trace.picture(mission, summary.targets), run_dir / "tour.png");
+    write_summary_page(read_summary_input(run_dir), run_dir);
+  } catch (const std::exception& e) {
+    err << "projtour: warning: " << e.what() << "\n";
   }
   print_target_table(summary, out);
   char mission_time[32];

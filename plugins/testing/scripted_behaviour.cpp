@@ -1,7 +1,9 @@
 #include "scripted_behaviour.hpp"
 
+#include <chrono>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/context.hpp"
@@ -24,12 +26,14 @@ std::vector<std::string> split_outcomes(const std::string& text) {
 
 }  // namespace
 
-const projtour_param_desc kScriptedParams[6] = {
+const projtour_param_desc kScriptedParams[7] = {
     {"outcomes", "string", "succeeded",
      "comma-separated outcomes of successive runs; the last repeats"},
     {"ticks", "integer", "1", "ticks each run lasts (the outcome comes on the last)"},
     {"throw_on", "integer", "0", "run number whose first tick throws (0 = never)"},
     {"ignore_cancel", "boolean", "false", "keep running after a cancel request"},
+    {"block_on", "integer", "0",
+     "run number whose first tick never returns, as a hung driver call would (0 = never)"},
     {"message", "string", "", "message attached to each outcome"},
     {"next_target", "integer", "-1",
      "on succeeded, ask the for_each to visit this target index next (-1 = no preference)"},
@@ -64,6 +68,7 @@ ScriptedBehaviour::ScriptedBehaviour(const Params& params, const RunContext&)
     : outcomes_(split_outcomes(params.string("outcomes"))),
       ticks_(params.integer("ticks")),
       throw_on_(params.integer("throw_on")),
+      block_on_(params.integer("block_on")),
       ignore_cancel_(params.boolean("ignore_cancel")),
       message_(params.string("message")),
       next_target_(params.integer("next_target")) {
@@ -80,6 +85,10 @@ void ScriptedBehaviour::start(Context&) {
 std::optional<Outcome> ScriptedBehaviour::tick(Context& ctx) {
   ++total_ticks_;
   if (paused_) throw std::logic_error("ticked while paused");
+  if (block_on_ == runs_ && ticks_this_run_ == 0) {
+    // Only the executor's watchdog ends this.
+    for (;;) std::this_thread::sleep_for(std::chrono::seconds(1));
+  }
   if (throw_on_ == runs_ && ticks_this_run_ == 0) {
     ++ticks_this_run_;
     throw std::runtime_error("scripted failure on run " + std::to_string(runs_));

@@ -12,7 +12,7 @@
 namespace projtour::testing {
 
 // The schema every scripted kind shares, as the plugin ABI gives it and as the executor reads it.
-extern const projtour_param_desc kScriptedParams[6];
+extern const projtour_param_desc kScriptedParams[7];
 const std::vector<ParamSpec>& scripted_param_specs();
 // "" when the script is well formed; checked at mission load.
 std::string validate_script(const Params& params);
@@ -37,6 +37,7 @@ class ScriptedBehaviour : public Behaviour {
   std::vector<std::string> outcomes_;
   long long ticks_ = 1;
   long long throw_on_ = 0;
+  long long block_on_ = 0;
   bool ignore_cancel_ = false;
   std::string message_;
   long long next_target_ = -1;

@@ -290,6 +290,68 @@ TEST_F(Command, InterruptThenResume) {
   EXPECT_EQ(report.at("targets").as_array().size(), 3u);
 }
 
+// Regression for a behaviour whose tick never returns (a driver call stuck on a dead device):
+// the watchdog stops the robot safely, names the behaviour in the report and exits 1, and the
+// executor itself never hangs.
+TEST_F(Command, WatchdogEndsABehaviourHungInTick) {
+  std::string machine = kLinearMachine;
+  machine.replace(machine.find("ticks: 4,"), 9, "ticks: 4, block_on: 2,");
+  machine.replace(machine.find("on: {succeeded: show"), 20,
+                  "timeout_s: 1.5\n          on: {succeeded: show");
+  machine.replace(machine.find("failed: skip_target}"), 20,
+                  "failed: skip_target, timeout: skip_target}");
+  const fs::path mission = write_mission(machine);
+  const auto started = std::chrono::steady_clock::now();
+  ASSERT_EQ(projtour("run " + mission.string() + " --speed 0 --out " + (dir_ / "run").string()), 1)
+      << err();
+  const double waited_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  EXPECT_LT(waited_s, 20.0);
+  const Json report = Json::parse(read_text(dir_ / "run" / "report.json"));
+  EXPECT_EQ(report.at("outcome").as_string(), "aborted");
+  EXPECT_EQ(report.at("reason").as_string(),
+            "behaviour scripted in state tour/visit/work hung: one tick ran past 1.5 s");
+  EXPECT_EQ(report.at("targets").as_array().size(), 1u);  // the first target was projected
+  EXPECT_TRUE(fs::exists(dir_ / "run" / "checkpoint.json"));
+  const std::string safe_stops = read_text(dir_ / "run" / "test_drivers.log");
+  for (const char* d : {"test_base", "test_projector", "test_pan_tilt"}) {
+    EXPECT_NE(safe_stops.find(std::string(d) + " safe_stop"), std::string::npos) << d;
+  }
+}
+
+TEST_F(Command, BehaviourIgnoringCancelIsNamedAndStillSafeStopped) {
+  const fs::path run = dir_ / "run";
+  std::string machine = kLinearMachine;
+  machine.replace(machine.find("ticks: 4,"), 9, "ticks: 100000, ignore_cancel: true,");
+  const fs::path mission = write_mission(machine);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    std::freopen((dir_ / "stdout1.txt").c_str(), "w", stdout);
+    std::freopen((dir_ / "stderr1.txt").c_str(), "w", stderr);
+    ::execl(kProjtour.c_str(), kProjtour.c_str(), "run", mission.c_str(), "--speed", "20", "--out",
+            run.c_str(), "--plugin-path", kPluginPath.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (read_text(run / "events.jsonl").find("tour/visit/work") == std::string::npos &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ::kill(child, SIGINT);
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 130) << read_text(dir_ / "stderr1.txt");
+  EXPECT_NE(read_text(dir_ / "stderr1.txt").find("tour/visit/work ignored the cancel"),
+            std::string::npos);
+  const Json report = Json::parse(read_text(run / "report.json"));
+  EXPECT_EQ(report.at("outcome").as_string(), "interrupted");
+  ASSERT_EQ(report.at("ignored_cancel").as_array().size(), 1u);
+  EXPECT_EQ(report.at("ignored_cancel").as_array()[0].as_string(), "tour/visit/work");
+  EXPECT_NE(read_text(run / "test_drivers.log").find("test_base safe_stop"), std::string::npos);
+}
+
 TEST_F(Command, ResumeWithoutCheckpointIsInvalidInput) {
   EXPECT_EQ(projtour("run " + kSource + "/missions/scripted_tour.yaml --resume --out " +
                      (dir_ / "none").string()),

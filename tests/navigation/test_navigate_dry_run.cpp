@@ -222,7 +222,7 @@ TEST(Relocalize, RecoversAfterTheRobotIsDisplacedByHalfAMetre) {
   ASSERT_LT(distance_m(rig.estimate().mean, rig.truth()), 0.1);
   // Kidnap: the base is carried 0.5 m sideways without its wheels turning.
   rig.world().truth.x_m += 0.5;
-  rig.idle(2.0);
+  rig.idle(3.0);
   ASSERT_GT(distance_m(rig.estimate().mean, rig.truth()), 0.3);
   // The cloud is still tight, but the scans no longer fit the map.
   EXPECT_FALSE(rig.blackboard().require<bool>(keys::kLocalizationConverged));

@@ -89,6 +89,7 @@ class Executor {
 
  private:
   bool start_services();
+  void publish_done_targets();
   void emit(EventType type, const StateSpec& state, const std::string& outcome = "",
             const std::string& message = "", const std::string& to = "");
   void enter(const StateSpec& state);

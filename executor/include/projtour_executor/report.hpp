@@ -22,6 +22,8 @@ struct RunSummary {
   double wall_s = 0.0;
   double mission_s = 0.0;
   std::vector<TargetRecord> targets;  // any order; written in mission order
+  std::string reason;  // why an aborted tour ended; written only when not empty
+  std::vector<std::string> ignored_cancel;  // behaviours stopped by force; written when any
 };
 
 // DESIGN.md's report.json, nothing more.

@@ -35,6 +35,8 @@ struct RunOptions {
   std::vector<std::filesystem::path> plugin_paths;
   double tick_hz = 20.0;
   double cancel_grace_s = 2.0;
+  // Wall-clock limit for one tick of a state without timeout_s (states with one use it).
+  double watchdog_s = 30.0;
 };
 
 // A kind with its checked parameters.
