@@ -23,7 +23,7 @@ build: configure
 	cmake --build $(BUILD_DIR) -j $(JOBS)
 
 run: build
-	$(BUILD_DIR)/projtour run missions/demo_tour.yaml --dry-run --seed $(SEED) --out $(RUN_DIR)
+	$(BUILD_DIR)/projtour run missions/demo_tour.yaml --dry-run --world missions/demo_world.yaml --seed $(SEED) --out $(RUN_DIR)
 
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 900

@@ -17,6 +17,7 @@
 #include "projtour/ground_truth.hpp"
 #include "projtour/kinematics.hpp"
 #include "projtour/mission_loader.hpp"
+#include "projtour/model.hpp"
 #include "projtour/occupancy_map.hpp"
 #include "projtour/plugin_loader.hpp"
 #include "projtour/projection.hpp"
@@ -44,6 +45,27 @@ fs::path write_content(const fs::path& dir) {
   const fs::path file = dir / "content.png";
   if (!cv::imwrite(file.string(), image)) throw std::runtime_error("cannot write content");
   return file;
+}
+
+// Model Points on the mesh (vertices): a 4 x 4 cm patch of the rabbit's chest, flat enough that
+// a 2 cm sideways nudge keeps the rays on it. Corners as seen from the front, where the model's
+// +y is the viewer's right.
+Quad3d chest_quad(const TriangleMesh& mesh) {
+  const std::array<Eigen::Vector2d, 4> yz = {
+      Eigen::Vector2d(0.0, 0.09), Eigen::Vector2d(0.04, 0.09), Eigen::Vector2d(0.04, 0.05),
+      Eigen::Vector2d(0.0, 0.05)};
+  Quad3d quad;
+  for (int i = 0; i < 4; ++i) {
+    // The frontmost vertex near the wanted (y, z) lies on the surface the robot faces.
+    std::optional<Eigen::Vector3d> best;
+    for (const Eigen::Vector3f& v : mesh.vertices) {
+      if ((Eigen::Vector2d(v.y(), v.z()) - yz[i]).norm() > 0.006) continue;
+      if (!best || v.x() > best->x()) best = v.cast<double>();
+    }
+    if (!best) throw std::runtime_error("no bunny vertex near a wanted Model Point");
+    quad[i] = *best;
+  }
+  return quad;
 }
 
 // What the projection looked like after each project tick.
@@ -75,10 +97,7 @@ class DryRun {
     target.id = "rabbit";
     target.model = fs::path(PROJTOUR_SOURCE_DIR) / "examples/models/bunny.ply";
     target.T_map_model = isometry_from_xyz_rpy(3.0, 0.0, 0.9, 0.0, 0.0, kPi);
-    // On the rabbit's chest, as seen from the front (its +y is the viewer's right).
-    target.model_points = {Eigen::Vector3d(0.1225, 0.0, 0.08), Eigen::Vector3d(0.1215, 0.06, 0.08),
-                           Eigen::Vector3d(0.089, 0.06, -0.02),
-                           Eigen::Vector3d(0.1153, 0.0, -0.02)};
+    target.model_points = chest_quad(load_mesh(target.model));
     target.content = write_content(dir_);
     target.dwell_s = kDwellS;
     mission.targets.push_back(target);
