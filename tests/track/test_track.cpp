@@ -209,6 +209,16 @@ class DryRun {
       s.lit = !drivers.projector->is_blank();
       const auto pixels = blackboard.require<Quad2d>(keys::kPixelsAfterAlign);
       s.error_mm = truth->evaluate_projection("rabbit", pixels)->mean_mm();
+      {
+        const Eigen::Isometry3d T_true = truth->true_T_map_camera().inverse() * truth->true_T_map_model("rabbit");
+        const auto q = project_model_points(mission.targets[0].model_points, HeadKinematics(mission.robot).T_projector_camera(drivers.pan_tilt->measured()) * T_true, mission.robot.projector.intrinsics);
+        const auto e = *truth->evaluate_projection("rabbit", q.pixels);
+        const auto a = *truth->evaluate_projection("rabbit", pixels);
+        const auto T_est = blackboard.require<Eigen::Isometry3d>(keys::kTCameraModel);
+        std::cout << "DBG t " << s.t_s << " floor " << e.error_mm[0] << " " << e.error_mm[1] << " " << e.error_mm[2] << " " << e.error_mm[3]
+                  << " shown " << a.error_mm[0] << " " << a.error_mm[1] << " " << a.error_mm[2] << " " << a.error_mm[3]
+                  << " pose err mm " << translation_distance_m(T_est, T_true) * 1e3 << " deg " << rad_to_deg(rotation_angle_rad(T_est, T_true)) << "\n";
+      }
       shown.push_back(s);
       tick_started = std::chrono::steady_clock::now();
     });
