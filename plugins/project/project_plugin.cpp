@@ -127,8 +127,8 @@ class Project : public Behaviour {
                      who + "no aligned pose on the blackboard (" + keys::kTCameraModel + ")"};
     }
     const PinholeModel& projector = ctx.robot().projector.intrinsics;
-    const Eigen::Isometry3d T_projector_camera =
-        kinematics_->T_projector_camera(ctx.drivers().pan_tilt->measured());
+    warp_q_ = ctx.drivers().pan_tilt->measured();
+    const Eigen::Isometry3d T_projector_camera = kinematics_->T_projector_camera(warp_q_);
 
     // Where the content would land from the guess alone: the report's "before alignment".
     if (const auto guess = ctx.blackboard().get<Eigen::Isometry3d>(keys::kTCameraModelGuess)) {
@@ -211,8 +211,16 @@ class Project : public Behaviour {
     rejected_in_a_row_ = 0;
     const Eigen::Isometry3d& T_camera_model = tracker_.T_camera_model();
     ctx.blackboard().set<Eigen::Isometry3d>(keys::kTCameraModel, T_camera_model);
+    // The head stands still while lit: its encoders' noise must not shake the content, so the
+    // angles of the last warp stand until the head has really moved (beyond its tolerance).
+    const JointAngles q = ctx.drivers().pan_tilt->measured();
+    const double tolerance_rad = deg_to_rad(ctx.robot().pan_tilt.tolerance_deg);
+    if (std::abs(q.pan_rad - warp_q_.pan_rad) > tolerance_rad ||
+        std::abs(q.tilt_rad - warp_q_.tilt_rad) > tolerance_rad) {
+      warp_q_ = q;
+    }
     const Eigen::Isometry3d T_projector_model =
-        kinematics_->T_projector_camera(ctx.drivers().pan_tilt->measured()) * T_camera_model;
+        kinematics_->T_projector_camera(warp_q_) * T_camera_model;
     const project::QuadMotion motion = project::model_points_motion(
         ctx.target->model_points, T_projector_model, shown_T_projector_model_);
     if (motion.max_point_m * 1e3 <= track_.threshold_mm &&
@@ -282,6 +290,7 @@ class Project : public Behaviour {
   static constexpr int kRejectedFramesToWarn = 15;
   int rejected_in_a_row_ = 0;
   std::string rewarp_problem_;
+  JointAngles warp_q_;  // head angles the projector pose is computed from
   // The model in the projector frame the frame on show was warped with.
   Eigen::Isometry3d shown_T_projector_model_ = Eigen::Isometry3d::Identity();
   std::unique_ptr<HeadKinematics> kinematics_;
@@ -319,7 +328,7 @@ const projtour_param_desc kParams[] = {
      "re-capture and re-align while showing, re-warping when the pose moves"},
     {"track_threshold_mm", "number", "1.0",
      "track: re-warp when a Model Point moves more than this (projector frame)"},
-    {"track_threshold_deg", "number", "0.2", "track: ... or the target turns more than this"},
+    {"track_threshold_deg", "number", "0.5", "track: ... or the target turns more than this"},
     {"track_min_inlier_fraction", "number", "0.6",
      "track: a frame whose fit has fewer inliers is skipped"},
     {"track_model_spacing_m", "number", "0.003",

@@ -19,7 +19,7 @@ namespace projtour::project {
 struct TrackSettings {
   bool enabled = false;
   double threshold_mm = 1.0;   // re-warp when a Model Point moves more (projector frame)
-  double threshold_deg = 0.2;  // ... or the target turns more
+  double threshold_deg = 0.5;  // ... or the target turns more
   double min_inlier_fraction = 0.6;
   double model_spacing_m = 0.003;  // align's default: the same model the pose came from
   double crop_margin_m = 0.05;
@@ -63,8 +63,9 @@ class PoseTracker {
   const Eigen::Isometry3d& T_camera_model() const { return T_camera_model_; }
   TrackStats& stats() { return stats_; }
 
-  // The schedule: align's fine levels only. Between frames the target moves little, but a bump
-  // can shift it by centimetres at once, so the first stage still reaches 4 cm.
+  // The schedule: the three finer levels of align's default, trimmed (fewer iterations, fewer
+  // points at full resolution) to stay near a millisecond. Between frames the target moves little,
+  // but a bump can shift it by centimetres at once, so the first stage still reaches 4 cm.
   static IcpOptions icp_options();
 
  private:

@@ -109,10 +109,11 @@ TEST_F(WorldLoader, FaultOnUnknownTarget) {
 }
 
 TEST_F(WorldLoader, UnknownFaultType) {
-  EXPECT_THAT(world_errors(replace(kWorld, "frame_dropout", "dropout")),
-              ElementsAre(dir + "/w.yaml:10:28: faults[0].type: expected one of frame_dropout, "
-                                "target_missing, occluder, blocked_path, kidnap, "
-                                "camera_disconnect, projector_failure, got \"dropout\""));
+  EXPECT_THAT(
+      world_errors(replace(kWorld, "frame_dropout", "dropout")),
+      ElementsAre(dir + "/w.yaml:10:28: faults[0].type: expected one of frame_dropout, "
+                        "target_missing, occluder, blocked_path, kidnap, "
+                        "camera_disconnect, projector_failure, target_nudge, got \"dropout\""));
 }
 
 TEST_F(WorldLoader, FaultValueNotANumber) {

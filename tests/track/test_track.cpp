@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
@@ -80,7 +81,9 @@ struct Shown {
 // One dry run: a mission of one bunny target, the world (nudge fault), the five sim drivers.
 class DryRun {
  public:
-  explicit DryRun(const std::string& name) {
+  // `exact_calibration`: the robot's camera-projector calibration is the truth (no error), so
+  // what remains is the alignment's and the tracking's own error.
+  DryRun(const std::string& name, bool exact_calibration) {
     dir_ =
         fs::temp_directory_path() / ("projtour_track_" + name + "_" + std::to_string(::getpid()));
     fs::create_directories(dir_);
@@ -103,12 +106,16 @@ class DryRun {
     mission.targets.push_back(target);
     // Already at the stand-off pose, as navigate leaves it.
     mission.start = standoff_pose(target);
-    // Sideways to the robot's view (the robot looks along the map's +x).
-    world.faults.push_back(
-        {"rabbit",
-         "target_nudge",
-         {{"after_s", kNudgeAfterS}, {"distance_m", kNudgeM}, {"direction_deg", 90}},
-         {}});
+    // The world file as a dry run reads it. The nudge is sideways to the robot's view (the
+    // robot looks along the map's +x), kNudgeAfterS after the projector first lights the target.
+    const fs::path world_file = dir_ / "world.yaml";
+    std::ofstream(world_file)
+        << (exact_calibration ? "calibration_error: {trans_mm: 0, rot_deg: 0}\n" : "")
+        << "faults:\n  - {target: rabbit, type: target_nudge, after_s: " << kNudgeAfterS
+        << ", distance_m: " << kNudgeM << ", direction_deg: 90}\n";
+    auto loaded = load_world(world_file, mission, diag);
+    if (!loaded) throw std::runtime_error("cannot load the world file: " + diag.format());
+    world = *loaded;
 
     run.mission = &mission;
     run.world = &world;
@@ -185,7 +192,8 @@ class DryRun {
   }
 
   // Capture and align as the tour does; then project, recording the truth after every tick.
-  std::vector<Shown> aim_align_project(bool track) {
+  std::vector<Shown> aim_align_project(
+      bool track, const std::map<std::string, ParamValue>& project_params = {}) {
     aim();
     auto capture = make("capture");
     const Outcome captured = run_behaviour(*capture);
@@ -195,8 +203,11 @@ class DryRun {
     EXPECT_EQ(aligned.name, "succeeded") << aligned.message;
 
     const Eigen::Isometry3d T_map_model_before = truth->true_T_map_model("rabbit");
+    projection_started_s = clock.now_s();
     std::vector<Shown> shown;
-    auto project = make("project", {{"track", track}});
+    std::map<std::string, ParamValue> params = project_params;
+    params["track"] = track;
+    auto project = make("project", params);
     auto tick_started = std::chrono::steady_clock::now();
     const Outcome projected = run_behaviour(*project, [&] {
       Shown s;
@@ -209,16 +220,6 @@ class DryRun {
       s.lit = !drivers.projector->is_blank();
       const auto pixels = blackboard.require<Quad2d>(keys::kPixelsAfterAlign);
       s.error_mm = truth->evaluate_projection("rabbit", pixels)->mean_mm();
-      {
-        const Eigen::Isometry3d T_true = truth->true_T_map_camera().inverse() * truth->true_T_map_model("rabbit");
-        const auto q = project_model_points(mission.targets[0].model_points, HeadKinematics(mission.robot).T_projector_camera(drivers.pan_tilt->measured()) * T_true, mission.robot.projector.intrinsics);
-        const auto e = *truth->evaluate_projection("rabbit", q.pixels);
-        const auto a = *truth->evaluate_projection("rabbit", pixels);
-        const auto T_est = blackboard.require<Eigen::Isometry3d>(keys::kTCameraModel);
-        std::cout << "DBG t " << s.t_s << " floor " << e.error_mm[0] << " " << e.error_mm[1] << " " << e.error_mm[2] << " " << e.error_mm[3]
-                  << " shown " << a.error_mm[0] << " " << a.error_mm[1] << " " << a.error_mm[2] << " " << a.error_mm[3]
-                  << " pose err mm " << translation_distance_m(T_est, T_true) * 1e3 << " deg " << rad_to_deg(rotation_angle_rad(T_est, T_true)) << "\n";
-      }
       shown.push_back(s);
       tick_started = std::chrono::steady_clock::now();
     });
@@ -237,6 +238,7 @@ class DryRun {
   RecordingLogger log;
   Context ctx;
   GroundTruth* truth = nullptr;
+  double projection_started_s = 0.0;
 
  private:
   template <typename D>
@@ -254,70 +256,128 @@ class DryRun {
   std::vector<std::unique_ptr<Params>> params_;
 };
 
-double mean_error_mm(const std::vector<Shown>& shown, bool nudged) {
+double mean_error_mm(std::vector<Shown>::const_iterator from,
+                     std::vector<Shown>::const_iterator to) {
   double sum = 0.0;
-  int n = 0;
-  for (const Shown& s : shown) {
-    if (s.nudged == nudged) sum += s.error_mm, ++n;
+  for (auto it = from; it != to; ++it) sum += it->error_mm;
+  return from == to ? -1.0 : sum / static_cast<double>(std::distance(from, to));
+}
+
+std::vector<Shown>::const_iterator first_nudged(const DryRun& dry,
+                                                const std::vector<Shown>& shown) {
+  const auto nudge =
+      std::find_if(shown.begin(), shown.end(), [](const Shown& s) { return s.nudged; });
+  if (nudge != shown.end()) {
+    // The fault acts kNudgeAfterS after the projector first lit the target.
+    EXPECT_NEAR(nudge->t_s, dry.projection_started_s + kNudgeAfterS, 1.5 * kFramePeriodS);
   }
-  return n > 0 ? sum / n : -1.0;
+  return nudge;
+}
+
+// Camera frames from the first that sees the moved target to the first whose projection error
+// is under `bar_mm` (1: corrected at once), or -1 when it never is.
+long frames_until_under(std::vector<Shown>::const_iterator nudge, const std::vector<Shown>& shown,
+                        double bar_mm) {
+  const auto back =
+      std::find_if(nudge, shown.end(), [&](const Shown& s) { return s.error_mm < bar_mm; });
+  return back == shown.end() ? -1 : std::distance(nudge, back) + 1;
+}
+
+std::string tracking_summary(const DryRun& dry) {
+  for (const std::string& line : dry.log.lines) {
+    if (line.find("tracking:") != std::string::npos) return line;
+  }
+  return "";
+}
+
+double median_tick_ms(std::vector<Shown>::const_iterator from,
+                      std::vector<Shown>::const_iterator to) {
+  std::vector<double> ms;
+  for (auto it = from; it != to; ++it) ms.push_back(it->tick_ms);
+  if (ms.empty()) return 0.0;
+  std::nth_element(ms.begin(), ms.begin() + static_cast<std::ptrdiff_t>(ms.size() / 2), ms.end());
+  return ms[ms.size() / 2];
 }
 
 TEST(Track, NudgedTargetIsMappedAgainWithinFiveFrames) {
-  DryRun dry("on");
+  DryRun dry("exact", /*exact_calibration=*/true);
   const std::vector<Shown> shown = dry.aim_align_project(/*track=*/true);
-  ASSERT_FALSE(shown.empty());
-  const auto nudge =
-      std::find_if(shown.begin(), shown.end(), [](const Shown& s) { return s.nudged; });
+  const auto nudge = first_nudged(dry, shown);
   ASSERT_NE(nudge, shown.end()) << "the simulator never nudged the target";
-  EXPECT_NEAR(nudge->t_s, kNudgeAfterS, 2 * kFramePeriodS);
 
   // Before the nudge the tracked projection sits on the Model Points.
   for (auto it = shown.begin(); it != nudge; ++it) {
     EXPECT_LT(it->error_mm, 3.0) << "at t = " << it->t_s << " s, before the nudge";
   }
-  // Frames from the one that first sees the moved target until the error is back under 3 mm.
-  const auto back =
-      std::find_if(nudge, shown.end(), [](const Shown& s) { return s.error_mm < 3.0; });
-  ASSERT_NE(back, shown.end()) << "the projection never came back under 3 mm";
-  const long frames_to_recover = std::distance(nudge, back) + 1;
-  EXPECT_LE(frames_to_recover, 5);
+  const long frames = frames_until_under(nudge, shown, 3.0);
+  ASSERT_GT(frames, 0) << "the projection never came back under 3 mm";
+  EXPECT_LE(frames, 5);
   // ... and it stays there for the rest of the dwell, with the projector lit throughout.
+  const auto back = nudge + (frames - 1);
   for (auto it = back; it != shown.end(); ++it) {
     EXPECT_LT(it->error_mm, 3.0) << "at t = " << it->t_s << " s, after recovering";
   }
   for (auto it = shown.begin(); it + 1 != shown.end(); ++it) {
     EXPECT_TRUE(it->lit) << "the projector went dark while tracking, at t = " << it->t_s << " s";
   }
-
-  std::vector<double> tick_ms;
-  for (const Shown& s : shown) tick_ms.push_back(s.tick_ms);
-  std::nth_element(tick_ms.begin(), tick_ms.begin() + tick_ms.size() / 2, tick_ms.end());
-  std::string summary;
-  for (const std::string& line : dry.log.lines) {
-    if (line.find("tracking:") != std::string::npos) summary = line;
-  }
+  const std::string summary = tracking_summary(dry);
   EXPECT_NE(summary, "") << "project logs no tracking summary";
-  std::cout << "[ track    ] nudge seen at t = " << nudge->t_s << " s with error "
-            << nudge->error_mm << " mm; back under 3 mm after " << frames_to_recover
-            << " frame(s) (" << back->error_mm << " mm); before the nudge "
-            << mean_error_mm({shown.begin(), nudge}, false) << " mm, after recovery "
-            << mean_error_mm({back, shown.end()}, true) << " mm on average\n"
-            << "[ track    ] median tick " << tick_ms[tick_ms.size() / 2]
+  std::cout << "[ track    ] exact calibration: " << mean_error_mm(shown.begin(), nudge)
+            << " mm before the nudge; the first frame after it shows " << nudge->error_mm
+            << " mm; under 3 mm after " << frames << " frame(s); then "
+            << mean_error_mm(back, shown.end()) << " mm on average\n"
+            << "[ track    ] median project tick " << median_tick_ms(shown.begin(), shown.end())
             << " ms (the simulator's depth render included)\n[ track    ] " << summary << "\n";
 }
 
+// With the world's default calibration error (1 mm, 0.1 deg) the error floor is that
+// calibration's, which no re-alignment removes: the nudge's part must still go within 5 frames.
+TEST(Track, WithCalibrationErrorTheNudgeIsUndoneWithinFiveFrames) {
+  DryRun dry("default", /*exact_calibration=*/false);
+  const std::vector<Shown> shown = dry.aim_align_project(/*track=*/true);
+  const auto nudge = first_nudged(dry, shown);
+  ASSERT_NE(nudge, shown.end()) << "the simulator never nudged the target";
+  const double before_mm = mean_error_mm(shown.begin(), nudge);
+  const long frames = frames_until_under(nudge, shown, before_mm + 1.0);
+  ASSERT_GT(frames, 0) << "the projection never came back near its error before the nudge";
+  EXPECT_LE(frames, 5);
+  const double after_mm = mean_error_mm(nudge + (frames - 1), shown.end());
+  EXPECT_LT(after_mm, before_mm + 1.0);
+  std::cout << "[ track    ] default calibration error: " << before_mm
+            << " mm before the nudge, back within 1 mm of it after " << frames << " frame(s), then "
+            << after_mm << " mm on average\n[ track    ] " << tracking_summary(dry) << "\n";
+}
+
 TEST(Track, WithoutTrackingTheNudgeStaysAsProjectionError) {
-  DryRun dry("off");
+  DryRun dry("off", /*exact_calibration=*/true);
   const std::vector<Shown> shown = dry.aim_align_project(/*track=*/false);
-  const double before_mm = mean_error_mm(shown, false);
-  const double after_mm = mean_error_mm(shown, true);
-  ASSERT_GE(after_mm, 0.0) << "the simulator never nudged the target";
+  const auto nudge = first_nudged(dry, shown);
+  ASSERT_NE(nudge, shown.end()) << "the simulator never nudged the target";
+  const double before_mm = mean_error_mm(shown.begin(), nudge);
+  const double after_mm = mean_error_mm(nudge, shown.end());
   EXPECT_LT(before_mm, 3.0);
   // The content stays where the target was: off by about the nudge.
   EXPECT_NEAR(after_mm, kNudgeM * 1e3, 5.0);
+  EXPECT_EQ(tracking_summary(dry), "");
   std::cout << "[ track    ] without tracking: " << before_mm << " mm before the nudge, "
             << after_mm << " mm after\n";
+}
+
+// Frames that fail the quality gate never move the content: with a gate no fit can pass, the
+// nudge stays uncorrected and the log says why.
+TEST(Track, FramesFailingTheGateAreNotFollowed) {
+  DryRun dry("gate", /*exact_calibration=*/true);
+  const std::vector<Shown> shown =
+      dry.aim_align_project(/*track=*/true, {{"track_min_inlier_fraction", 1.0}});
+  const auto nudge = first_nudged(dry, shown);
+  ASSERT_NE(nudge, shown.end()) << "the simulator never nudged the target";
+  EXPECT_NEAR(mean_error_mm(nudge, shown.end()), kNudgeM * 1e3, 5.0);
+  const std::string summary = tracking_summary(dry);
+  EXPECT_NE(summary.find(" 0 passed the gate, 0 re-warps"), std::string::npos) << summary;
+  const bool warned = std::any_of(dry.log.lines.begin(), dry.log.lines.end(), [](const auto& l) {
+    return l.find("frames in a row failed the tracking gate") != std::string::npos;
+  });
+  EXPECT_TRUE(warned);
 }
 
 TEST(Track, ParametersAreCheckedAtLoad) {

@@ -1,0 +1,243 @@
+#include "dry_run.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+namespace projtour::integration {
+
+namespace {
+
+const std::string kProjtour = std::string(PROJTOUR_BINARY_DIR) + "/projtour";
+
+// The leaf states of a visit: "tour/visit/capture" (any machine whose visit is one level deep).
+bool is_visit_step(const std::string& state) {
+  return std::count(state.begin(), state.end(), '/') == 2;
+}
+std::string last_component(const std::string& state) {
+  return state.substr(state.rfind('/') + 1);
+}
+bool has_target(const Json& event, const std::string& target) {
+  const Json* t = event.find("target");
+  return t != nullptr && t->is_string() && t->as_string() == target;
+}
+
+}  // namespace
+
+fs::path data_dir() {
+  return fs::path(PROJTOUR_SOURCE_DIR) / "tests" / "integration" / "data";
+}
+
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot read " + file.string());
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+std::vector<std::string> dry_run_args(const fs::path& mission, const fs::path& world,
+                                      const fs::path& out, const std::vector<std::string>& extra) {
+  std::vector<std::string> args = {"run",     mission.string(), "--dry-run",    "--world",
+                                   world.string(), "--speed",   "0",            "--out",
+                                   out.string(),   "--plugin-path", PROJTOUR_PLUGIN_BUILD_DIR};
+  args.insert(args.end(), extra.begin(), extra.end());
+  return args;
+}
+
+Child::Child(const std::vector<std::string>& args, const fs::path& stdout_file,
+             const fs::path& stderr_file) {
+  std::vector<std::string> argv_strings = {kProjtour};
+  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& s : argv_strings) argv.push_back(s.data());
+  argv.push_back(nullptr);
+  pid_ = ::fork();
+  if (pid_ < 0) throw std::runtime_error("fork failed");
+  if (pid_ == 0) {
+    const int out = ::open(stdout_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int err = ::open(stderr_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (out < 0 || err < 0) ::_exit(126);
+    ::dup2(out, STDOUT_FILENO);
+    ::dup2(err, STDERR_FILENO);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+}
+
+Child::~Child() {
+  if (!status_ && pid_ > 0) {
+    ::kill(pid_, SIGKILL);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+  }
+}
+
+void Child::signal(int sig) const {
+  if (!status_) ::kill(pid_, sig);
+}
+
+int Child::decode(int status) {
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) return -WTERMSIG(status);
+  return -1000;
+}
+
+std::optional<int> Child::poll() {
+  if (status_) return status_;
+  int status = 0;
+  if (::waitpid(pid_, &status, WNOHANG) == pid_) status_ = decode(status);
+  return status_;
+}
+
+int Child::wait(std::chrono::milliseconds limit) {
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  while (!poll()) {
+    if (std::chrono::steady_clock::now() > deadline) {
+      ::kill(pid_, SIGKILL);
+      int status = 0;
+      ::waitpid(pid_, &status, 0);
+      status_ = -SIGKILL;
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return *status_;
+}
+
+int run_projtour(const std::vector<std::string>& args, const fs::path& log_prefix,
+                 std::chrono::milliseconds limit) {
+  Child child(args, log_prefix.string() + ".stdout", log_prefix.string() + ".stderr");
+  return child.wait(limit);
+}
+
+std::vector<Json> read_jsonl(const fs::path& file) {
+  const std::string text = read_text(file);
+  if (!text.empty() && text.back() != '\n') {
+    throw std::runtime_error(file.string() + ": the last line is cut (no newline at the end)");
+  }
+  std::vector<Json> out;
+  std::istringstream in(text);
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    try {
+      out.push_back(Json::parse(line));
+    } catch (const std::exception& e) {
+      throw std::runtime_error(file.string() + ":" + std::to_string(number) + ": " + e.what() +
+                               ": " + line);
+    }
+  }
+  return out;
+}
+
+Json read_json(const fs::path& file) {
+  try {
+    return Json::parse(read_text(file));
+  } catch (const std::exception& e) {
+    throw std::runtime_error(file.string() + ": " + e.what());
+  }
+}
+
+std::vector<StepOutcome> step_outcomes(const std::vector<Json>& events, const std::string& target) {
+  std::vector<StepOutcome> out;
+  for (const Json& e : events) {
+    if (e.at("event").as_string() != "outcome" || !has_target(e, target)) continue;
+    const std::string& state = e.at("state").as_string();
+    if (!is_visit_step(state)) continue;
+    const Json* message = e.find("message");
+    out.push_back({last_component(state), e.at("outcome").as_string(),
+                   message != nullptr ? message->as_string() : "", e.at("t").as_double()});
+  }
+  return out;
+}
+
+std::vector<std::string> outcome_chain(const std::vector<Json>& events, const std::string& target) {
+  std::vector<std::string> chain;
+  for (const Json& e : events) {
+    if (!has_target(e, target)) continue;
+    const std::string& type = e.at("event").as_string();
+    const std::string& state = e.at("state").as_string();
+    if (!is_visit_step(state)) continue;
+    if (type == "outcome") {
+      chain.push_back(last_component(state) + ":" + e.at("outcome").as_string());
+    } else if (type == "transition") {
+      const std::string& to = e.at("to").as_string();
+      if (to == "skip_target" || to == "finish" || to == "abort") chain.push_back(to);
+    }
+  }
+  return chain;
+}
+
+std::string join(const std::vector<std::string>& items) {
+  std::string out;
+  for (const auto& s : items) out += (out.empty() ? "" : " > ") + s;
+  return out;
+}
+
+const Json& report_target(const Json& report, const std::string& id) {
+  for (const Json& t : report.at("targets").as_array()) {
+    if (t.at("id").as_string() == id) return t;
+  }
+  throw std::runtime_error("report.json has no target " + id);
+}
+
+std::vector<std::string> projector_safety_problems(const fs::path& run_dir,
+                                                   const std::vector<Json>& events) {
+  // Mission seconds in the projector log are printed with six significant digits.
+  constexpr double kSlackS = 0.01;
+  std::vector<std::pair<double, double>> project_spells;
+  std::optional<double> entered_s;
+  for (const Json& e : events) {
+    if (!is_visit_step(e.at("state").as_string()) ||
+        last_component(e.at("state").as_string()) != "project") {
+      continue;
+    }
+    if (e.at("event").as_string() == "enter") entered_s = e.at("t").as_double();
+    if (e.at("event").as_string() == "exit" && entered_s) {
+      project_spells.emplace_back(*entered_s, e.at("t").as_double());
+      entered_s.reset();
+    }
+  }
+  const auto inside_project = [&](double from_s, double to_s) {
+    for (const auto& [a, b] : project_spells) {
+      if (from_s >= a - kSlackS && to_s <= b + kSlackS) return true;
+    }
+    return false;
+  };
+
+  std::vector<std::string> problems;
+  const std::vector<Json> log = read_jsonl(run_dir / "sim_projector_log.jsonl");
+  std::optional<double> lit_since_s;
+  for (const Json& e : log) {
+    const double t_s = e.at("t").as_double();
+    const bool show = e.at("event").as_string() == "show";
+    const bool moving = e.at("base_moving").as_bool() || e.at("head_moving").as_bool();
+    const std::string at = " at t=" + Json(t_s).dump() + " s (" + e.dump() + ")";
+    if (show) {
+      if (moving) problems.push_back("shown while the base or head moved" + at);
+      if (!lit_since_s) lit_since_s = t_s;
+      continue;
+    }
+    if (!lit_since_s) continue;  // blanking a blank projector
+    if (moving) problems.push_back("still lit when the base or head moved" + at);
+    if (!inside_project(*lit_since_s, t_s)) {
+      problems.push_back("lit from t=" + Json(*lit_since_s).dump() + " s to t=" + Json(t_s).dump() +
+                         " s outside a project state");
+    }
+    lit_since_s.reset();
+  }
+  if (lit_since_s) {
+    problems.push_back("left lit at the end of the run (since t=" + Json(*lit_since_s).dump() +
+                       " s)");
+  }
+  return problems;
+}
+
+}  // namespace projtour::integration

@@ -1,0 +1,32 @@
+#pragma once
+// A GoogleTest fixture giving each test its own scratch directory and one-call dry runs of the
+// integration mission.
+#include <gtest/gtest.h>
+
+#include "dry_run.hpp"
+
+namespace projtour::integration {
+
+struct DryRunResult {
+  int exit_code = -1;
+  fs::path dir;
+  Json report;
+  std::vector<Json> events;
+  std::string err;
+};
+
+class DryRunTest : public ::testing::Test {
+ protected:
+  void SetUp() override;
+  void TearDown() override;
+
+  // Runs tests/integration/data/short_tour.yaml in `world` (a file in data/) into dir_/name.
+  // Fails the test when the run directory holds an unparsable file or the projector was lit
+  // while something moved.
+  DryRunResult dry_run(const std::string& world, const std::string& name,
+                       const std::vector<std::string>& extra = {});
+
+  fs::path dir_;
+};
+
+}  // namespace projtour::integration

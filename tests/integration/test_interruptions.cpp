@@ -1,0 +1,203 @@
+// Interruptions (issue 8, item 2): dry runs of the integration tour are sent SIGINT at moments
+// spread over every step (on entering each kind of state, watched in events.jsonl, and at random
+// times), then resumed with --resume on the same --out. Over the two runs every target is
+// projected exactly once, the exit statuses are 130 then 0 (or 3 with a reason), and no file of
+// the run directory is ever truncated or unparsable.
+#include <signal.h>
+
+#include <map>
+#include <random>
+#include <set>
+#include <thread>
+
+#include "run_fixture.hpp"
+
+namespace projtour::integration {
+namespace {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+const std::vector<std::string> kTargets = {"rabbit", "open-day-sign"};
+const std::vector<std::string> kSteps = {"navigate", "aim", "capture", "align", "project", "next"};
+
+// When to send SIGINT: `after` past the entry of `step` for the target `target_index`, or (empty
+// step) `after` past the start of the process.
+struct KillMoment {
+  std::string step;
+  std::size_t target_index = 0;
+  std::chrono::milliseconds after{0};
+
+  std::string describe() const {
+    if (step.empty()) return "at " + std::to_string(after.count()) + " ms";
+    return std::to_string(after.count()) + " ms into " + step + " of " + kTargets[target_index];
+  }
+};
+
+std::string enter_marker(const KillMoment& k) {
+  return R"("event": "enter", "state": "tour/visit/)" + k.step + R"(", "target": ")" +
+         kTargets[k.target_index] + "\"";
+}
+
+// The step a cancel ended ("" when the SIGINT came between steps or the run was over).
+std::string cancelled_step(const std::vector<Json>& events) {
+  for (auto it = events.rbegin(); it != events.rend(); ++it) {
+    if (it->at("event").as_string() == "outcome" && it->at("outcome").as_string() == "cancelled") {
+      const std::string& state = it->at("state").as_string();
+      return state.substr(state.rfind('/') + 1);
+    }
+  }
+  return "";
+}
+
+class Interruptions : public DryRunTest {
+ protected:
+  // Every file a reader may open mid-run must parse whenever it is there.
+  void expect_files_whole(const fs::path& run, const std::string& when) {
+    try {
+      if (fs::exists(run / "checkpoint.json")) read_json(run / "checkpoint.json");
+      if (fs::exists(run / "report.json")) read_json(run / "report.json");
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << when << ": " << e.what();
+    }
+  }
+
+  // Interrupts one run at `k`, then resumes it; returns the step the cancel ended.
+  std::string interrupt_and_resume(const KillMoment& k, int index) {
+    const std::string name = "kill" + std::to_string(index);
+    const fs::path run = dir_ / name;
+    const fs::path mission = data_dir() / "short_tour.yaml";
+    const fs::path world = data_dir() / "nominal_world.yaml";
+    const std::string when = name + " (" + k.describe() + ")";
+
+    std::optional<int> first_exit;
+    {
+      Child child(dry_run_args(mission, world, run), dir_ / (name + "a.stdout"),
+                  dir_ / (name + "a.stderr"));
+      const auto started = Clock::now();
+      std::optional<Clock::time_point> fire_at;
+      if (k.step.empty()) fire_at = started + k.after;
+      while (!child.poll()) {
+        if (!fire_at && fs::exists(run / "events.jsonl") &&
+            read_text(run / "events.jsonl").find(enter_marker(k)) != std::string::npos) {
+          fire_at = Clock::now() + k.after;
+        }
+        if (fire_at && Clock::now() >= *fire_at) {
+          child.signal(SIGINT);
+          break;
+        }
+        expect_files_whole(run, when + " while running");
+        if (Clock::now() - started > 60s) {
+          ADD_FAILURE() << when << ": never reached the moment";
+          break;
+        }
+        std::this_thread::sleep_for(2ms);
+      }
+      first_exit = child.wait(60s);
+    }
+    const std::string err1 = read_text(dir_ / (name + "a.stderr"));
+    // A moment after the end of the tour is not an interruption: the run must have completed.
+    if (*first_exit != 130) {
+      EXPECT_EQ(*first_exit, 0) << when << "\n" << err1;
+      return "(finished)";
+    }
+
+    // After the kill: every file whole, the report says interrupted, the projector safe.
+    std::vector<Json> events1;
+    try {
+      const Json report = read_json(run / "report.json");
+      EXPECT_EQ(report.at("outcome").as_string(), "interrupted") << when;
+      const Json checkpoint = read_json(run / "checkpoint.json");
+      EXPECT_LE(checkpoint.at("done").as_array().size(), kTargets.size()) << when;
+      events1 = read_jsonl(run / "events.jsonl");
+      for (const auto& p : projector_safety_problems(run, events1)) {
+        ADD_FAILURE() << when << ": " << p;
+      }
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << when << ": " << e.what() << "\n" << err1;
+      return "";
+    }
+    const std::string step = cancelled_step(events1);
+
+    const int second_exit = run_projtour(dry_run_args(mission, world, run, {"--resume"}),
+                                         dir_ / (name + "b"), 120s);
+    const std::string err2 = read_text(dir_ / (name + "b.stderr"));
+    EXPECT_TRUE(second_exit == 0 || second_exit == 3) << when << ": resume exit " << second_exit
+                                                      << "\n"
+                                                      << err2;
+    try {
+      const std::vector<Json> events = read_jsonl(run / "events.jsonl");
+      EXPECT_GT(events.size(), events1.size()) << when;
+      const std::vector<Json> events2(events.begin() + events1.size(), events.end());
+      for (const auto& p : projector_safety_problems(run, events2)) {
+        ADD_FAILURE() << when << " (resumed): " << p;
+      }
+      const Json report = read_json(run / "report.json");
+      read_json(run / "checkpoint.json");
+      const auto& records = report.at("targets").as_array();
+      EXPECT_EQ(records.size(), kTargets.size()) << when << ": " << report.dump(2);
+      for (const std::string& id : kTargets) {
+        int projected = 0;
+        for (const StepOutcome& s : step_outcomes(events, id)) {
+          projected += s.step == "project" && s.outcome == "succeeded";
+        }
+        const Json& record = report_target(report, id);
+        if (record.at("outcome").as_string() == "projected") {
+          EXPECT_EQ(projected, 1) << when << ": " << id << " projected " << projected
+                                  << " times over the two runs";
+        } else {
+          EXPECT_EQ(second_exit, 3) << when;
+          EXPECT_EQ(record.at("outcome").as_string(), "skipped") << when;
+          EXPECT_FALSE(record.at("reason").as_string().empty()) << when;
+          EXPECT_LE(projected, 1) << when << ": " << id;
+        }
+      }
+      EXPECT_EQ(report.at("outcome").as_string(),
+                second_exit == 0 ? "completed" : "completed_with_skips")
+          << when;
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << when << " (resumed): " << e.what() << "\n" << err2;
+    }
+    return step;
+  }
+};
+
+TEST_F(Interruptions, SigintAnywhereThenResumeProjectsEveryTargetOnce) {
+  const auto started = Clock::now();
+  // An uninterrupted run first: it completes, and its length spreads the random moments.
+  const DryRunResult whole = dry_run("nominal_world.yaml", "whole");
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  const auto whole_ms =
+      std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - started);
+
+  std::vector<KillMoment> moments;
+  for (const std::string& step : kSteps) {
+    moments.push_back({step, 0, 0ms});
+    moments.push_back({step, 1, 0ms});
+    moments.push_back({step, 0, 3ms});
+  }
+  std::mt19937 rng(20240611);
+  std::uniform_int_distribution<long> random_ms(50, whole_ms.count() * 9 / 10);
+  for (int i = 0; i < 4; ++i) moments.push_back({"", 0, std::chrono::milliseconds(random_ms(rng))});
+
+  std::map<std::string, int> cancelled_in;
+  int interrupted = 0;
+  for (std::size_t i = 0; i < moments.size(); ++i) {
+    const std::string step = interrupt_and_resume(moments[i], static_cast<int>(i));
+    if (step != "(finished)") ++interrupted;
+    ++cancelled_in[step.empty() ? "(between steps)" : step];
+    if (HasFatalFailure()) return;
+  }
+  std::string spread;
+  for (const auto& [step, n] : cancelled_in) spread += step + "=" + std::to_string(n) + " ";
+  RecordProperty("cancelled_in", spread);
+  RecordProperty("wall_s", std::to_string(std::chrono::duration<double>(Clock::now() - started)
+                                              .count()));
+  EXPECT_GE(interrupted, 20) << spread;
+  for (const std::string& step : kSteps) {
+    EXPECT_GE(cancelled_in[step], 1) << "no SIGINT landed in " << step << ": " << spread;
+  }
+}
+
+}  // namespace
+}  // namespace projtour::integration
