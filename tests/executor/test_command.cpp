@@ -348,7 +348,7 @@ TEST_F(Command, BehaviourIgnoringCancelIsNamedAndStillSafeStopped) {
   const Json report = Json::parse(read_text(run / "report.json"));
   EXPECT_EQ(report.at("outcome").as_string(), "interrupted");
   ASSERT_EQ(report.at("ignored_cancel").as_array().size(), 1u);
-  EXPECT_EQ(report.at("ignored_cancel").as_array()[0].as_string(), "tour/visit/work");
+  EXPECT_EQ(report.at("ignored_cancel").as_array()[0].as_string(), "tour/visit/work (scripted)");
   EXPECT_NE(read_text(run / "test_drivers.log").find("test_base safe_stop"), std::string::npos);
 }
 

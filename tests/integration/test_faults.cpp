@@ -39,7 +39,9 @@ class Faults : public DryRunTest {
     ASSERT_NE(t.find("reason"), nullptr) << t.dump();
     EXPECT_TRUE(std::regex_search(t.at("reason").as_string(), std::regex(reason)))
         << t.at("reason").as_string() << " !~ " << reason;
-    EXPECT_EQ(t.find("projected_s"), nullptr) << "a skipped target was not projected";
+    if (const Json* shown_s = t.find("projected_s")) {
+      EXPECT_EQ(shown_s->as_double(), 0.0) << "a skipped target was not projected";
+    }
   }
 };
 
@@ -67,63 +69,70 @@ TEST_F(Faults, AllFramesDroppedRetriesCaptureThenSkips) {
   EXPECT_EQ(report_target(r.report, kFaulted).at("retries").as_int(), 2);
 }
 
-// The target is gone: align finds too few points where it should stand, re-aims once, finds
-// nothing again and the target is skipped.
+// The target is gone: align finds no points where it should stand, re-aims once (aim's one
+// retry), finds nothing again and the target is skipped with align's reason.
 TEST_F(Faults, TargetMissingReAimsThenSkips) {
   const DryRunResult r = run_fault("w_target_missing.yaml", 3);
   EXPECT_EQ(join(outcome_chain(r.events, kFaulted)),
             "navigate:succeeded > aim:succeeded > capture:succeeded > align:no_target > "
             "aim:succeeded > capture:succeeded > align:no_target > skip_target");
-  expect_skipped(r, "^retries exhausted \\(aim, skip_target\\) after no_target: |^no_target: ");
+  expect_skipped(r, "^no_target: 0 points within [0-9.]+ m of the expected target");
+  EXPECT_EQ(report_target(r.report, kFaulted).at("retries").as_int(), 1);
 }
 
 // A board hangs between the stand-off pose and the rabbit (above the laser plane, so navigation
-// reaches the stand-off pose): the camera sees the board, not the rabbit, and the target is
-// skipped after the retries rather than projected on the board.
+// reaches the stand-off pose): the camera sees the board's edge, too few points where the
+// rabbit should be, and the target is skipped after re-aiming rather than projected on the board.
 TEST_F(Faults, OccluderIsNotProjectedOn) {
   const DryRunResult r = run_fault("w_occluder.yaml", 3);
-  const auto chain = outcome_chain(r.events, kFaulted);
-  EXPECT_EQ(std::count(chain.begin(), chain.end(), "project:succeeded"), 0) << join(chain);
-  EXPECT_EQ(chain.front(), "navigate:succeeded") << join(chain);
-  EXPECT_EQ(chain.back(), "skip_target") << join(chain);
-  expect_skipped(r, "no_target|poor_fit");
+  EXPECT_EQ(join(outcome_chain(r.events, kFaulted)),
+            "navigate:succeeded > aim:succeeded > capture:succeeded > align:no_target > "
+            "aim:succeeded > capture:succeeded > align:no_target > skip_target");
+  expect_skipped(r, "^no_target: [0-9]+ points within [0-9.]+ m of the expected target");
 }
 
 // A box on the stand-off pose: the laser sees it, navigation makes no progress and gives up
-// (blocked or unreachable); the robot never touched the box and the tour goes on.
+// after its blocked_s; the tour goes on.
 TEST_F(Faults, BlockedPathSkipsTheTarget) {
   const DryRunResult r = run_fault("w_blocked_path.yaml", 3);
-  const auto chain = outcome_chain(r.events, kFaulted);
-  ASSERT_EQ(chain.size(), 2u) << join(chain);
-  EXPECT_TRUE(chain[0] == "navigate:blocked" || chain[0] == "navigate:unreachable") << chain[0];
-  EXPECT_EQ(chain[1], "skip_target");
-  expect_skipped(r, "^(blocked|unreachable): ");
+  EXPECT_EQ(join(outcome_chain(r.events, kFaulted)), "navigate:blocked > skip_target");
+  expect_skipped(r, "^blocked: no progress for 15(\\.0+)? s$");
 }
 
-// The robot is carried 2 m away as it arrives. Whatever the system does, it must not project
-// the content anywhere but on the rabbit: either localization notices (relocalize, navigate
-// again) and the rabbit is projected with a small error, or the target is skipped.
-TEST_F(Faults, KidnappedRobotRelocalizesOrSkipsSafely) {
-  DryRunResult r = dry_run("w_kidnap.yaml", "run");
+// The robot is carried 2 m away as it stops at the rabbit (odometry does not notice). What the
+// system does (seed 11): nothing notices while it stands there, so aim, capture and align look
+// where the rabbit is not, find nothing and skip it; driving on, navigation finds localization
+// lost and relocalizes by spinning. It must be safe whatever happens: nothing is projected
+// anywhere but on its target (a projected target has a small true error), the loss is detected,
+// and every skipped target says why.
+TEST_F(Faults, KidnappedRobotIsDetectedAndNeverProjectsAstray) {
+  const DryRunResult r = dry_run("w_kidnap.yaml", "run");
   ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 3) << r.err;
-  const Json& next = report_target(r.report, kNext);
-  EXPECT_EQ(next.at("outcome").as_string(), "projected") << next.dump();
-  const Json& t = report_target(r.report, kFaulted);
-  const auto chain = outcome_chain(r.events, kFaulted);
-  if (t.at("outcome").as_string() == "projected") {
-    EXPECT_EQ(r.exit_code, 0);
-    // Projected on the rabbit, not on whatever stood where the robot thought it was.
-    EXPECT_LT(t.at("projection_error_mm").at("after_align").as_double(), 20.0) << t.dump();
-  } else {
-    EXPECT_EQ(r.exit_code, 3);
-    expect_skipped(r, ".");
-    EXPECT_EQ(std::count(chain.begin(), chain.end(), "project:succeeded"), 0) << join(chain);
+  EXPECT_EQ(join(outcome_chain(r.events, kFaulted)),
+            "navigate:succeeded > aim:succeeded > capture:succeeded > align:no_target > "
+            "aim:succeeded > capture:succeeded > align:no_target > skip_target");
+  expect_skipped(r, "^no_target: ");
+  const auto next = outcome_chain(r.events, kNext);
+  ASSERT_GE(next.size(), 2u) << join(next);
+  EXPECT_EQ(next[0], "navigate:lost") << join(next);
+  EXPECT_EQ(next[1], "relocalize:succeeded") << join(next);
+  bool skipped = false;
+  for (const Json& t : r.report.at("targets").as_array()) {
+    if (t.at("outcome").as_string() == "projected") {
+      EXPECT_LT(t.at("projection_error_mm").at("after_align").as_double(), 20.0) << t.dump();
+    } else {
+      skipped = true;
+      EXPECT_EQ(t.at("outcome").as_string(), "skipped") << t.dump();
+      EXPECT_FALSE(t.at("reason").as_string().empty()) << t.dump();
+    }
   }
-  RecordProperty("kidnap_chain", join(chain));
+  EXPECT_EQ(r.exit_code, skipped ? 3 : 0);
+  RecordProperty("sign_chain", join(next));
 }
 
-// The depth camera disconnects at its first frame at the rabbit: capture fails on the driver
-// error and the target is skipped with the driver's message; the sign (camera back) goes on.
+// The depth camera disconnects as capture asks for its first frame at the rabbit: capture fails
+// on the driver error and the target is skipped with the driver's message; at the sign the
+// (simulated) camera works again and the tour goes on.
 TEST_F(Faults, CameraDisconnectMidCaptureSkips) {
   const DryRunResult r = run_fault("w_camera_disconnect.yaml", 3);
   EXPECT_EQ(join(outcome_chain(r.events, kFaulted)),
@@ -138,7 +147,7 @@ TEST_F(Faults, ProjectorFailureSkips) {
   EXPECT_EQ(join(outcome_chain(r.events, kFaulted)),
             "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
             "project:failed > skip_target");
-  expect_skipped(r, "^failed: .*simulated projector: lamp failure");
+  expect_skipped(r, "^failed: start failed: simulated projector: lamp failure$");
   for (const Json& e : read_jsonl(r.dir / "sim_projector_log.jsonl")) {
     EXPECT_FALSE(e.at("event").as_string() == "show" && e.at("target").is_string() &&
                  e.at("target").as_string() == kFaulted)

@@ -21,23 +21,29 @@ using Clock = std::chrono::steady_clock;
 const std::vector<std::string> kTargets = {"rabbit", "open-day-sign"};
 const std::vector<std::string> kSteps = {"navigate", "aim", "capture", "align", "project", "next"};
 
-// When to send SIGINT: `after` past the entry of `step` for the target `target_index`, or (empty
-// step) `after` past the start of the process.
+// When to send SIGINT: `after` past the entry of `step` for the target `target_index`, `after`
+// past the start of the tour (step "tour"), or `after` past the start of the process (step "").
+// `speed` paces the run: a capture lasts one tick (a couple of milliseconds at --speed 0, less
+// than the test polls in), so the moments meant for it run at a few times real time instead.
 struct KillMoment {
   std::string step;
   std::size_t target_index = 0;
   std::chrono::milliseconds after{0};
+  std::string speed = "0";
 
   std::string describe() const {
-    if (step.empty()) return "at " + std::to_string(after.count()) + " ms";
-    return std::to_string(after.count()) + " ms into " + step + " of " + kTargets[target_index];
+    const std::string ms = std::to_string(after.count()) + " ms";
+    if (step.empty()) return ms + " after the process started";
+    if (step == "tour") return ms + " into the tour";
+    return ms + " into " + step + " of " + kTargets[target_index] + " at --speed " + speed;
+  }
+  std::optional<std::string> marker() const {
+    if (step.empty()) return std::nullopt;
+    if (step == "tour") return std::string(R"("event": "enter", "state": "tour", "target": null)");
+    return R"("event": "enter", "state": "tour/visit/)" + step + R"(", "target": ")" +
+           kTargets[target_index] + "\"";
   }
 };
-
-std::string enter_marker(const KillMoment& k) {
-  return R"("event": "enter", "state": "tour/visit/)" + k.step + R"(", "target": ")" +
-         kTargets[k.target_index] + "\"";
-}
 
 // The step a cancel ended ("" when the SIGINT came between steps or the run was over).
 std::string cancelled_step(const std::vector<Json>& events) {
@@ -72,14 +78,15 @@ class Interruptions : public DryRunTest {
 
     std::optional<int> first_exit;
     {
-      Child child(dry_run_args(mission, world, run), dir_ / (name + "a.stdout"),
+      Child child(dry_run_args(mission, world, run, {"--speed", k.speed}), dir_ / (name + "a.stdout"),
                   dir_ / (name + "a.stderr"));
       const auto started = Clock::now();
       std::optional<Clock::time_point> fire_at;
-      if (k.step.empty()) fire_at = started + k.after;
+      const std::optional<std::string> marker = k.marker();
+      if (!marker) fire_at = started + k.after;
       while (!child.poll()) {
         if (!fire_at && fs::exists(run / "events.jsonl") &&
-            read_text(run / "events.jsonl").find(enter_marker(k)) != std::string::npos) {
+            read_text(run / "events.jsonl").find(*marker) != std::string::npos) {
           fire_at = Clock::now() + k.after;
         }
         if (fire_at && Clock::now() >= *fire_at) {
@@ -119,12 +126,12 @@ class Interruptions : public DryRunTest {
     }
     const std::string step = cancelled_step(events1);
 
-    const int second_exit = run_projtour(dry_run_args(mission, world, run, {"--resume"}),
-                                         dir_ / (name + "b"), 120s);
+    const int second_exit =
+        run_projtour(dry_run_args(mission, world, run, {"--resume"}), dir_ / (name + "b"), 120s);
     const std::string err2 = read_text(dir_ / (name + "b.stderr"));
-    EXPECT_TRUE(second_exit == 0 || second_exit == 3) << when << ": resume exit " << second_exit
-                                                      << "\n"
-                                                      << err2;
+    EXPECT_TRUE(second_exit == 0 || second_exit == 3)
+        << when << ": resume exit " << second_exit << "\n"
+        << err2;
     try {
       const std::vector<Json> events = read_jsonl(run / "events.jsonl");
       EXPECT_GT(events.size(), events1.size()) << when;
@@ -172,13 +179,16 @@ TEST_F(Interruptions, SigintAnywhereThenResumeProjectsEveryTargetOnce) {
 
   std::vector<KillMoment> moments;
   for (const std::string& step : kSteps) {
-    moments.push_back({step, 0, 0ms});
-    moments.push_back({step, 1, 0ms});
-    moments.push_back({step, 0, 3ms});
+    const std::string speed = step == "capture" ? "4" : "0";
+    moments.push_back({step, 0, 0ms, speed});
+    moments.push_back({step, 1, 0ms, speed});
+    moments.push_back({step, 0, 3ms, speed});
   }
   std::mt19937 rng(20240611);
-  std::uniform_int_distribution<long> random_ms(50, whole_ms.count() * 9 / 10);
-  for (int i = 0; i < 4; ++i) moments.push_back({"", 0, std::chrono::milliseconds(random_ms(rng))});
+  std::uniform_int_distribution<long> random_ms(0, whole_ms.count() * 8 / 10);
+  for (int i = 0; i < 4; ++i) {
+    moments.push_back({"tour", 0, std::chrono::milliseconds(random_ms(rng))});
+  }
 
   std::map<std::string, int> cancelled_in;
   int interrupted = 0;
@@ -191,12 +201,19 @@ TEST_F(Interruptions, SigintAnywhereThenResumeProjectsEveryTargetOnce) {
   std::string spread;
   for (const auto& [step, n] : cancelled_in) spread += step + "=" + std::to_string(n) + " ";
   RecordProperty("cancelled_in", spread);
-  RecordProperty("wall_s", std::to_string(std::chrono::duration<double>(Clock::now() - started)
-                                              .count()));
+  RecordProperty("wall_s",
+                 std::to_string(std::chrono::duration<double>(Clock::now() - started).count()));
   EXPECT_GE(interrupted, 20) << spread;
   for (const std::string& step : kSteps) {
     EXPECT_GE(cancelled_in[step], 1) << "no SIGINT landed in " << step << ": " << spread;
   }
+}
+
+// Before the tour starts (plugins, map and models still loading) nothing has moved: a SIGINT
+// then must still end the run as an interruption that --resume can continue.
+TEST_F(Interruptions, SigintWhileLoadingExits130AndResumes) {
+  const std::string step = interrupt_and_resume({"", 0, 150ms}, 0);
+  EXPECT_EQ(step, "") << "the cancel cannot have ended a step before the tour started";
 }
 
 }  // namespace

@@ -277,7 +277,9 @@ TEST(PluginLoader, LibraryStaysLoadedWhileAnObjectLives) {
   ASSERT_TRUE(outcome.has_value());
   EXPECT_EQ(outcome->name, "timed_out");
   behaviour.reset();
-  EXPECT_FALSE(is_loaded(file));
+  // Never unmapped (RTLD_NODELETE): values a plugin left on a blackboard or in an exception
+  // may still run its code at teardown, after the last object is gone.
+  EXPECT_TRUE(is_loaded(file));
 }
 
 TEST(PluginLoader, CreateThatThrowsNamesKindLibraryAndReason) {

@@ -83,7 +83,7 @@ std::string format_quality(const RegistrationResult& r) {
   std::ostringstream s;
   s.precision(3);
   s << "inlier fraction " << r.inlier_fraction << ", RMSE " << r.rmse_mm << " mm, " << r.iterations
-    << " iterations, " << r.time_ms << " ms";
+    << " iterations";
   return s.str();
 }
 

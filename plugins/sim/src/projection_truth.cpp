@@ -1,4 +1,5 @@
 // The referee: where projected pixels really land, and the before/after pictures.
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <opencv2/core.hpp>
@@ -61,9 +62,15 @@ void write_projection_view(const Scene& alone, const Eigen::Isometry3d& T_map_mo
   k.fx = k.fy = 600.0;
   k.cx = 319.5;
   k.cy = 239.5;
-  // A virtual camera 0.6 m in front of the target (its +x side), looking at its origin, upright.
-  const Eigen::Vector3d target = T_map_model.translation();
-  const Eigen::Vector3d eye = T_map_model * Eigen::Vector3d(0.6, 0.0, 0.0);
+  // A virtual camera in front of the target (its +x side), looking at the true Model Points'
+  // centre from far enough that they fill about half the picture, upright.
+  Eigen::Vector3d target = Eigen::Vector3d::Zero();
+  for (const auto& p : projection.model_points_map) target += p / 4.0;
+  double extent_m = 0.0;
+  for (const auto& p : projection.model_points_map)
+    extent_m = std::max(extent_m, (p - target).norm());
+  const double distance_m = std::max(0.25, 2.0 * extent_m * k.fx / (0.5 * k.height));
+  const Eigen::Vector3d eye = target + distance_m * T_map_model.linear().col(0);
   const Eigen::Vector3d forward = (target - eye).normalized();
   Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ());
   if (right.norm() < 1e-6) right = forward.cross(Eigen::Vector3d::UnitY());
