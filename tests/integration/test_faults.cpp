@@ -3,6 +3,7 @@
 // chain of outcomes the fault causes, that the tour goes on to project the sign, the exit
 // status, the reason in report.json, and (in the fixture) that the projector was blank whenever
 // the base or the head moved.
+#include <algorithm>
 #include <regex>
 
 #include "run_fixture.hpp"
@@ -56,6 +57,21 @@ TEST_F(Faults, HalfTheFramesDroppedIsRecoveredByWaiting) {
   EXPECT_EQ(std::count(chain.begin(), chain.end(), "capture:no_frame"), 0) << join(chain);
   EXPECT_EQ(chain.back(), "finish") << join(chain);
   EXPECT_EQ(std::count(chain.begin(), chain.end(), "project:succeeded"), 1) << join(chain);
+  // A frame is due every 50 ms tick (30 Hz camera): a capture of more than one tick waited
+  // through dropped frames, so the fault did act.
+  const auto steps = step_outcomes(r.events, kFaulted);
+  const auto capture = std::find_if(steps.begin(), steps.end(),
+                                    [](const StepOutcome& s) { return s.step == "capture"; });
+  ASSERT_NE(capture, steps.end());
+  double entered_s = -1.0;
+  for (const Json& e : r.events) {
+    if (e.at("event").as_string() == "enter" && e.at("state").as_string() == "tour/visit/capture" &&
+        e.at("target").is_string() && e.at("target").as_string() == kFaulted) {
+      entered_s = e.at("t").as_double();
+      break;
+    }
+  }
+  EXPECT_GT(capture->t_s - entered_s, 0.075) << "no frame was dropped: the test shows nothing";
 }
 
 // Every frame empty: capture times out, re-captures twice (its retries), then the target is

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Long days (issue 8, item 4): dry runs of generated 50- and 200-target missions on the campus
-# map under /usr/bin/time -v; prints the peak resident set size, wall time and outcome of each,
-# and how much the peak grew per extra target against how much the report grew.
+# map under /usr/bin/time -v. Prints, per run, the exit status, targets projected, peak resident
+# set size, wall and mission time and report size; while a run goes, its peak RSS is sampled
+# after every 25 finished targets, so the 200-target run also shows the peak after 50 targets of
+# the same mission (which separates growth per visit from what a bigger mission costs to load).
 #
 #   tests/long_day/run_long_day.sh [BUILD_DIR] [COUNTS...]     (default: build 50 200)
 #   OUT=/tmp/long-day tests/long_day/run_long_day.sh build-survival 50 200
@@ -17,11 +19,17 @@ mkdir -p "$out"
 [ -x /usr/bin/time ] || { echo "needs /usr/bin/time (apt-get install time)" >&2; exit 2; }
 [ -x "$build/projtour" ] || { echo "no projtour in $build" >&2; exit 2; }
 
+# Targets that repeat a pose stand there as several objects in the simulated world: without
+# model error and seeded offsets they are identical copies that render as one, as a real long
+# day (one object visited again and again) would look.
 cat >"$out/world.yaml" <<'WORLD'
-# The long day's world: the demo world's seeded target offsets and default noise, no faults.
 seed: 1
-target_offset: {max_m: 0.05, max_deg: 3}
+model_error: {enabled: false}
 WORLD
+
+visits_done() {
+  grep -c '"event": "exit", "state": "tour/visit",' "$1" 2>/dev/null || true
+}
 
 summary=()
 for n in "${counts[@]}"; do
@@ -30,10 +38,26 @@ for n in "${counts[@]}"; do
   python3 "$here/make_long_mission.py" --targets "$n" --out "$mission"
   rm -rf "$run"
   echo "== $n targets: $mission -> $run" >&2
-  status=0
   /usr/bin/time -v -o "$out/time_$n.txt" "$build/projtour" run "$mission" --dry-run \
     --world "$out/world.yaml" --speed 0 --out "$run" --plugin-path "$build/plugins" \
-    >"$out/stdout_$n.txt" 2>"$out/stderr_$n.txt" || status=$?
+    >"$out/stdout_$n.txt" 2>"$out/stderr_$n.txt" &
+  timer=$!
+  : >"$out/samples_$n.txt"
+  next_mark=25
+  while kill -0 "$timer" 2>/dev/null; do
+    child=$(pgrep -P "$timer" || true)
+    if [ -n "$child" ] && [ -r "/proc/$child/status" ]; then
+      done_now=$(visits_done "$run/events.jsonl")
+      hwm=$(sed -n 's/^VmHWM:[[:space:]]*\([0-9]*\) kB/\1/p' "/proc/$child/status" 2>/dev/null || true)
+      if [ -n "$hwm" ] && [ "${done_now:-0}" -ge "$next_mark" ]; then
+        echo "$done_now $hwm" >>"$out/samples_$n.txt"
+        next_mark=$((next_mark + 25))
+      fi
+    fi
+    sleep 0.2
+  done
+  status=0
+  wait "$timer" || status=$?
   rss_kb=$(sed -n 's/^[[:space:]]*Maximum resident set size (kbytes): //p' "$out/time_$n.txt")
   wall=$(sed -n 's/^[[:space:]]*Elapsed (wall clock) time (h:mm:ss or m:ss): //p' "$out/time_$n.txt")
   report_b=$(stat -c %s "$run/report.json" 2>/dev/null || echo 0)
@@ -48,6 +72,8 @@ PY
 )
   printf '%4d targets: exit %d, %d projected, peak RSS %d kB, wall %s, mission %.0f s, report %d B\n' \
     "$n" "$status" "$projected" "$rss_kb" "$wall" "$mission_s" "$report_b"
+  printf '      peak RSS after N targets done (N kB): %s\n' \
+    "$(tr '\n' ';' <"$out/samples_$n.txt" | sed 's/;$//; s/;/; /g')"
   summary+=("$n $rss_kb $report_b")
 done
 

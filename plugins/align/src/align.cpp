@@ -95,8 +95,10 @@ class Align : public Behaviour {
 
   void start(Context& ctx) override {
     if (ctx.target == nullptr) return;
-    // Loading and resampling a model takes a while: once per target over the whole tour.
+    // Loading and resampling a model takes a while: once per visit (re-aims and re-captures
+    // reuse it); only the current target's is kept, so memory does not grow over a long tour.
     if (models_.count(ctx.target->id) == 0) {
+      models_.clear();
       models_[ctx.target->id] = std::make_shared<const IcpModel>(
           load_model_cloud(ctx.target->model, settings_.model_spacing_m));
     }

@@ -15,6 +15,7 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr int kBins = 16;
 constexpr int kMaxLeafSize = 4;
 constexpr int kStackSize = 64;
+constexpr float kBoxPadding = 1e-4f;  // metres
 
 struct Box3 {
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(kInf);
@@ -168,9 +169,12 @@ Scene SceneBuilder::build() const {
       cbounds.grow(centroid[order[k]]);
     }
     Scene::Node& node = nodes[job.node];
+    // Padded: a ray meeting a triangle exactly on its box's face (a vertex on a ring of a
+    // cylinder, a flat face) is otherwise culled by the slab test's rounding in some boxes and
+    // found in none, and the ray slips through to the far side.
     for (int a = 0; a < 3; ++a) {
-      node.lo[a] = bounds.lo[a];
-      node.hi[a] = bounds.hi[a];
+      node.lo[a] = bounds.lo[a] - kBoxPadding;
+      node.hi[a] = bounds.hi[a] + kBoxPadding;
     }
     node.first = job.first;
     node.count = job.count;
@@ -253,22 +257,26 @@ Scene SceneBuilder::build() const {
     const Eigen::Vector3f e1 = corners_[3 * t + 1] - a;
     const Eigen::Vector3f e2 = corners_[3 * t + 2] - a;
     const Eigen::Vector3f n = e1.cross(e2);
-    const Eigen::Vector3f c = corners_[3 * t + 2], b = corners_[3 * t + 1];
     int axis;
     n.cwiseAbs().maxCoeff(&axis);
     const int i1 = (axis + 1) % 3, i2 = (axis + 2) % 3;
     const float inv = 1.0f / n[axis];
     float* m = scene.tris_[k].m;
-    const Eigen::Vector3f ca = c.cross(a), ba = b.cross(a);
-    // Rows as in Baldwin & Weber (JCGT 2016), written for any dominant axis.
+    // Rows as in Baldwin & Weber (JCGT 2016), written for any dominant axis. Their constant
+    // terms come from c x a and b x a, which cancel catastrophically in float for a small
+    // triangle tens of metres from the origin (b1 off by ~0.4: rays slipped through meshes);
+    // instead each row is anchored at a, where both barycentrics are 0, in double.
     m[axis] = 0.0f;
     m[i1] = e2[i2] * inv;
     m[i2] = -e2[i1] * inv;
-    m[3] = ca[axis] * inv;
     m[4 + axis] = 0.0f;
     m[4 + i1] = -e1[i2] * inv;
     m[4 + i2] = e1[i1] * inv;
-    m[7] = -ba[axis] * inv;
+    const Eigen::Vector3d a_d = a.cast<double>();
+    m[3] = static_cast<float>(
+        -(double{m[0]} * a_d.x() + double{m[1]} * a_d.y() + double{m[2]} * a_d.z()));
+    m[7] = static_cast<float>(
+        -(double{m[4]} * a_d.x() + double{m[5]} * a_d.y() + double{m[6]} * a_d.z()));
     m[8 + axis] = 1.0f;
     m[8 + i1] = n[i1] * inv;
     m[8 + i2] = n[i2] * inv;
@@ -305,9 +313,9 @@ void Scene::intersect_bvh(const float o[3], const float d[3], RayHit& hit) const
         if (!(t > 1e-6f && t < t_best)) continue;
         const float h[3] = {o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]};
         const float b1 = m[0] * h[0] + m[1] * h[1] + m[2] * h[2] + m[3];
-        if (b1 < 0.0f || b1 > 1.0f) continue;
+        if (b1 < -kEdgeTolerance || b1 > 1.0f + kEdgeTolerance) continue;
         const float b2 = m[4] * h[0] + m[5] * h[1] + m[6] * h[2] + m[7];
-        if (b2 < 0.0f || b1 + b2 > 1.0f) continue;
+        if (b2 < -kEdgeTolerance || b1 + b2 > 1.0f + kEdgeTolerance) continue;
         {
           t_best = t;
           best = k;

@@ -52,7 +52,8 @@ void Scene::intersect_bvh4(const float o[3], const float dx[4], const float dy[4
   }
   const __m128 idx = _mm_load_ps(inv[0]), idy = _mm_load_ps(inv[1]), idz = _mm_load_ps(inv[2]);
   const __m128 vdx = _mm_loadu_ps(dx), vdy = _mm_loadu_ps(dy), vdz = _mm_loadu_ps(dz);
-  const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f), eps = _mm_set1_ps(1e-6f);
+  const __m128 zero = _mm_set1_ps(-kEdgeTolerance), one = _mm_set1_ps(1.0f + kEdgeTolerance),
+               eps = _mm_set1_ps(1e-6f);
   __m128 t_best = _mm_setr_ps(hits[0].t, hits[1].t, hits[2].t, hits[3].t);
   __m128i best = _mm_set1_epi32(-1);
 

@@ -31,6 +31,12 @@ class COccupancyGridMap2D;
 namespace projtour::sim {
 
 constexpr int kNoObject = -1;
+// Barycentric slack of the ray-triangle test: float rounding in each triangle's own frame can
+// reject a ray through a shared edge or vertex in every triangle that has it, and the ray then
+// slips through a closed mesh (a Model Point placed on a vertex was "hit" on the far side).
+// Scenes live in map coordinates tens of metres from the origin, where a float resolves ~4 um:
+// on a 2 cm triangle that is 2e-4 of its frame, so the slack is 1e-3 (20 um of overlap).
+constexpr float kEdgeTolerance = 1e-3f;
 
 struct RayHit {
   float t = std::numeric_limits<float>::infinity();  // ray parameter: origin + t * dir
