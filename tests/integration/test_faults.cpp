@@ -30,6 +30,12 @@ class Faults : public DryRunTest {
               "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
               "project:succeeded > next:finished > finish")
         << "the target after the fault";
+    int shown_on_next = 0;
+    for (const Json& e : read_jsonl(r.dir / "sim_projector_log.jsonl")) {
+      shown_on_next += e.at("event").as_string() == "show" && e.at("target").is_string() &&
+                       e.at("target").as_string() == kNext;
+    }
+    EXPECT_GE(shown_on_next, 1) << "the simulated projector never showed the sign";
     return r;
   }
 
@@ -117,33 +123,29 @@ TEST_F(Faults, BlockedPathSkipsTheTarget) {
 
 // The robot is carried 2 m away as it stops at the rabbit (odometry does not notice). What the
 // system does (seed 11): nothing notices while it stands there, so aim, capture and align look
-// where the rabbit is not, find nothing and skip it; driving on, navigation finds localization
-// lost and relocalizes by spinning. It must be safe whatever happens: nothing is projected
-// anywhere but on its target (a projected target has a small true error), the loss is detected,
-// and every skipped target says why.
-TEST_F(Faults, KidnappedRobotIsDetectedAndNeverProjectsAstray) {
+// where the rabbit is not, find nothing and skip it (align's no_target is what catches the
+// kidnap). On the way to the sign localization recovers, by itself as the scans pull the
+// particles back or through navigate's lost and a relocalize, and the sign is projected. Safe
+// throughout: nothing is projected anywhere but on its target, and the skip says why.
+TEST_F(Faults, KidnappedRobotSkipsTheTargetAndRecoversByTheNext) {
   const DryRunResult r = dry_run("w_kidnap.yaml", "run");
-  ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 3) << r.err;
+  EXPECT_EQ(r.exit_code, 3) << r.err;
   EXPECT_EQ(join(outcome_chain(r.events, kFaulted)),
             "navigate:succeeded > aim:succeeded > capture:succeeded > align:no_target > "
             "aim:succeeded > capture:succeeded > align:no_target > skip_target");
-  expect_skipped(r, "^no_target: ");
+  expect_skipped(r, "^no_target: 0 points within [0-9.]+ m of the expected target");
+
   const auto next = outcome_chain(r.events, kNext);
-  ASSERT_GE(next.size(), 2u) << join(next);
-  EXPECT_EQ(next[0], "navigate:lost") << join(next);
-  EXPECT_EQ(next[1], "relocalize:succeeded") << join(next);
-  bool skipped = false;
-  for (const Json& t : r.report.at("targets").as_array()) {
-    if (t.at("outcome").as_string() == "projected") {
-      EXPECT_LT(t.at("projection_error_mm").at("after_align").as_double(), 20.0) << t.dump();
-    } else {
-      skipped = true;
-      EXPECT_EQ(t.at("outcome").as_string(), "skipped") << t.dump();
-      EXPECT_FALSE(t.at("reason").as_string().empty()) << t.dump();
-    }
-  }
-  EXPECT_EQ(r.exit_code, skipped ? 3 : 0);
-  RecordProperty("sign_chain", join(next));
+  const std::string tail =
+      "aim:succeeded > capture:succeeded > align:succeeded > project:succeeded > "
+      "next:finished > finish";
+  EXPECT_TRUE(join(next) == "navigate:succeeded > " + tail ||
+              join(next) == "navigate:lost > relocalize:succeeded > navigate:succeeded > " + tail)
+      << join(next);
+  const Json& sign = report_target(r.report, kNext);
+  EXPECT_EQ(sign.at("outcome").as_string(), "projected") << sign.dump();
+  EXPECT_LT(sign.at("localization_error").at("trans_m").as_double(), 0.1) << sign.dump();
+  EXPECT_LT(sign.at("projection_error_mm").at("after_align").as_double(), 20.0) << sign.dump();
 }
 
 // The depth camera disconnects as capture asks for its first frame at the rabbit: capture fails

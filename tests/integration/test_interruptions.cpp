@@ -1,14 +1,13 @@
 // Interruptions (issue 8, item 2): dry runs of the integration tour are sent SIGINT at moments
-// spread over every step (on entering each kind of state, watched in events.jsonl, and at random
-// times), then resumed with --resume on the same --out. Over the two runs every target is
-// projected exactly once, the exit statuses are 130 then 0 (or 3 with a reason), and no file of
-// the run directory is ever truncated or unparsable.
+// spread over every step (on entering each kind of state, watched in events.jsonl, and right
+// after randomly chosen events of an uninterrupted run), then resumed with --resume on the same
+// --out. Over the two runs every target is projected exactly once, the exit statuses are 130 then 0
+// (or 3 with a reason), and no file of the run directory is ever truncated or unparsable.
 #include <signal.h>
 
 #include <cstdio>
 #include <map>
 #include <random>
-#include <set>
 #include <thread>
 
 #include "run_fixture.hpp"
@@ -22,27 +21,27 @@ using Clock = std::chrono::steady_clock;
 const std::vector<std::string> kTargets = {"rabbit", "open-day-sign"};
 const std::vector<std::string> kSteps = {"navigate", "aim", "capture", "align", "project", "next"};
 
-// When to send SIGINT: `after` past the entry of `step` for the target `target_index`, `after`
-// past the start of the tour (step "tour"), or `after` past the start of the process (step "").
-// `speed` paces the run: a capture lasts one tick (a couple of milliseconds at --speed 0, less
-// than the test polls in), so the moments meant for it run at a few times real time instead.
+// When to send SIGINT: `after` past the moment the line `marker` (a piece of one events.jsonl
+// line) appears, or past the start of the process when there is no marker. `speed` paces the
+// run: a capture lasts one tick (a couple of milliseconds at --speed 0, less than the test polls
+// in), so the moments meant for it run at a few times real time instead.
 struct KillMoment {
-  std::string step;
-  std::size_t target_index = 0;
+  std::string what;
+  std::optional<std::string> marker;
   std::chrono::milliseconds after{0};
   std::string speed = "0";
 
-  std::string describe() const {
-    const std::string ms = std::to_string(after.count()) + " ms";
-    if (step.empty()) return ms + " after the process started";
-    if (step == "tour") return ms + " into the tour";
-    return ms + " into " + step + " of " + kTargets[target_index] + " at --speed " + speed;
+  static KillMoment entering(const std::string& step, std::size_t target_index,
+                             std::chrono::milliseconds after, const std::string& speed) {
+    return {std::to_string(after.count()) + " ms into " + step + " of " + kTargets[target_index] +
+                " at --speed " + speed,
+            R"("event": "enter", "state": "tour/visit/)" + step + R"(", "target": ")" +
+                kTargets[target_index] + "\"",
+            after, speed};
   }
-  std::optional<std::string> marker() const {
-    if (step.empty()) return std::nullopt;
-    if (step == "tour") return std::string(R"("event": "enter", "state": "tour", "target": null)");
-    return R"("event": "enter", "state": "tour/visit/)" + step + R"(", "target": ")" +
-           kTargets[target_index] + "\"";
+  // Right after one event of the uninterrupted run (the same seed gives the same lines).
+  static KillMoment at_event(const Json& event) {
+    return {"after event " + event.dump(), event.dump(), 0ms, "0"};
   }
 };
 
@@ -84,7 +83,7 @@ class Interruptions : public DryRunTest {
     const fs::path run = dir_ / name;
     const fs::path mission = data_dir() / "short_tour.yaml";
     const fs::path world = data_dir() / "nominal_world.yaml";
-    const std::string when = name + " (" + k.describe() + ")";
+    const std::string when = name + " (" + k.what + ")";
 
     std::optional<int> first_exit;
     {
@@ -92,11 +91,10 @@ class Interruptions : public DryRunTest {
                   dir_ / (name + "a.stdout"), dir_ / (name + "a.stderr"));
       const auto started = Clock::now();
       std::optional<Clock::time_point> fire_at;
-      const std::optional<std::string> marker = k.marker();
-      if (!marker) fire_at = started + k.after;
+      if (!k.marker) fire_at = started + k.after;
       while (!child.poll()) {
         if (!fire_at && fs::exists(run / "events.jsonl") &&
-            read_text(run / "events.jsonl").find(*marker) != std::string::npos) {
+            read_text(run / "events.jsonl").find(*k.marker) != std::string::npos) {
           fire_at = Clock::now() + k.after;
         }
         if (fire_at && Clock::now() >= *fire_at) {
@@ -188,23 +186,27 @@ class Interruptions : public DryRunTest {
 
 TEST_F(Interruptions, SigintAnywhereThenResumeProjectsEveryTargetOnce) {
   const auto started = Clock::now();
-  // An uninterrupted run first: it completes, and its length spreads the random moments.
+  // An uninterrupted run first: it completes, and its events are the random moments' menu.
   const DryRunResult whole = dry_run("nominal_world.yaml", "whole");
   ASSERT_EQ(whole.exit_code, 0) << whole.err;
-  const auto whole_ms =
-      std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - started);
 
   std::vector<KillMoment> moments;
   for (const std::string& step : kSteps) {
     const std::string speed = step == "capture" ? "4" : "0";
-    moments.push_back({step, 0, 0ms, speed});
-    moments.push_back({step, 1, 0ms, speed});
-    moments.push_back({step, 0, 3ms, speed});
+    moments.push_back(KillMoment::entering(step, 0, 0ms, speed));
+    moments.push_back(KillMoment::entering(step, 1, 0ms, speed));
+    moments.push_back(KillMoment::entering(step, 0, 3ms, speed));
   }
+  // Any event before the last visit ends (a SIGINT after the tour is its own test below).
+  std::size_t last_visit_exit = 0;
+  for (std::size_t i = 0; i < whole.events.size(); ++i) {
+    if (whole.events[i].at("state").as_string() == "tour/visit") last_visit_exit = i;
+  }
+  ASSERT_GT(last_visit_exit, 10u);
   std::mt19937 rng(20240611);
-  std::uniform_int_distribution<long> random_ms(0, whole_ms.count() / 2);
-  for (int i = 0; i < 6; ++i) {
-    moments.push_back({"tour", 0, std::chrono::milliseconds(random_ms(rng))});
+  std::uniform_int_distribution<std::size_t> random_event(1, last_visit_exit - 1);
+  for (int i = 0; i < 8; ++i) {
+    moments.push_back(KillMoment::at_event(whole.events[random_event(rng)]));
   }
 
   std::map<std::string, int> cancelled_in;
@@ -231,10 +233,20 @@ TEST_F(Interruptions, SigintAnywhereThenResumeProjectsEveryTargetOnce) {
 // Before the tour starts (plugins, map and models still loading) nothing has moved: a SIGINT
 // then must still end the run as an interruption that --resume can continue.
 TEST_F(Interruptions, SigintWhileLoadingExits130AndResumes) {
-  const std::string step = interrupt_and_resume({"", 0, 150ms}, 0);
+  const std::string step = interrupt_and_resume({"150 ms after the process started", {}, 150ms}, 0);
   if (step != "(killed)") {
     EXPECT_EQ(step, "") << "no step can have run before the tour started";
   }
+}
+
+// After the tour's last event the run is writing its report and pictures: a SIGINT then must
+// not turn a finished tour into a process killed by a signal.
+TEST_F(Interruptions, SigintAfterTheTourEndedStillExitsCleanly) {
+  const std::string step = interrupt_and_resume(
+      {"right after the tour's last event",
+       std::string(R"("state": "tour", "target": null, "outcome": "done")"), 0ms},
+      0);
+  EXPECT_TRUE(step == "(finished)" || step == "") << step;
 }
 
 }  // namespace

@@ -1,0 +1,69 @@
+// The projector-safety check every integration test relies on, on hand-written run directories:
+// it must flag what it is there to catch, or the integration tests would pass vacuously.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <fstream>
+
+#include "dry_run.hpp"
+
+namespace projtour::integration {
+namespace {
+
+class ProjectorSafety : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("projtour_it_safety_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::vector<std::string> problems(const std::string& log) {
+    std::ofstream(dir_ / "sim_projector_log.jsonl") << log;
+    return projector_safety_problems(dir_, events_);
+  }
+
+  fs::path dir_;
+  // A visit whose project state ran from 10 s to 12 s.
+  std::vector<Json> events_ = {
+      Json::parse(R"({"t": 10.0, "event": "enter", "state": "tour/visit/project", "target": "a"})"),
+      Json::parse(R"({"t": 12.0, "event": "exit", "state": "tour/visit/project", "target": "a"})"),
+  };
+};
+
+std::string line(double t_s, const char* event, bool base_moving, bool head_moving) {
+  return std::string("{\"t\": ") + Json(t_s).dump() + ", \"event\": \"" + event +
+         "\", \"base_moving\": " + (base_moving ? "true" : "false") +
+         ", \"head_moving\": " + (head_moving ? "true" : "false") + ", \"target\": \"a\"}\n";
+}
+
+TEST_F(ProjectorSafety, ALitSpellInsideProjectWithEverythingStillIsSafe) {
+  EXPECT_TRUE(problems(line(0, "blank", true, false) + line(10.05, "show", false, false) +
+                       line(12, "blank", false, false))
+                  .empty());
+}
+
+TEST_F(ProjectorSafety, FlagsShowingWhileTheBaseMoves) {
+  EXPECT_EQ(problems(line(10.05, "show", true, false) + line(12, "blank", false, false)).size(),
+            1u);
+}
+
+TEST_F(ProjectorSafety, FlagsBlankingOnlyAfterTheHeadStartedMoving) {
+  EXPECT_EQ(problems(line(10.05, "show", false, false) + line(12, "blank", false, true)).size(),
+            1u);
+}
+
+TEST_F(ProjectorSafety, FlagsLightOutsideProject) {
+  EXPECT_EQ(problems(line(9, "show", false, false) + line(11, "blank", false, false)).size(), 1u);
+}
+
+TEST_F(ProjectorSafety, FlagsAProjectorLeftLit) {
+  EXPECT_EQ(problems(line(10.05, "show", false, false)).size(), 1u);
+}
+
+TEST_F(ProjectorSafety, ACutLineIsAnError) {
+  EXPECT_THROW(problems(line(10.05, "show", false, false) + "{\"t\": 12"), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace projtour::integration
