@@ -256,6 +256,7 @@ void Executor::open_visit(const StateSpec& for_each, std::size_t index) {
   current_target_ = index;
   visit_state_ = &for_each;
   retries_used_.clear();
+  visit_projected_ = false;
   run_.blackboard->erase_prefix("target.");
   record_ = TargetRecord{};
   record_.index = index;
@@ -291,6 +292,7 @@ void Executor::leave_leaf(const Outcome& outcome) {
     if (run_.log != nullptr) run_.log->warning(leaf->path + ": stop failed: " + e.what());
   }
   if (current_target_) measure_on_exit(leaf->behaviour, leaf_ctx_, record_.measurements);
+  if (leaf->behaviour == "project" && outcome.name == "succeeded") visit_projected_ = true;
   emit(EventType::exit, *leaf);
   active_.pop_back();
   leaf_behaviour_ = nullptr;
@@ -395,7 +397,8 @@ void Executor::unwind_to(const StateSpec* keep) {
   }
 }
 
-void Executor::end_visit(const std::string& outcome, const std::string& reason) {
+// Records the visit in progress as done with `outcome` and leaves its for_each state.
+void Executor::close_visit(const std::string& outcome, const std::string& reason) {
   const StateSpec* for_each = visit_state_;
   unwind_to(for_each);
   record_.outcome = outcome;
@@ -409,6 +412,11 @@ void Executor::end_visit(const std::string& outcome, const std::string& reason) 
   current_target_.reset();
   visit_state_ = nullptr;
   for (ExecutorObserver* o : observers_) o->on_target_done(records_.back());
+}
+
+void Executor::end_visit(const std::string& outcome, const std::string& reason) {
+  const StateSpec* for_each = visit_state_;
+  close_visit(outcome, reason);
   begin_visit(*for_each);
 }
 
@@ -420,26 +428,16 @@ int Executor::retries_taken() const {
 
 void Executor::abort_tour(const std::string& reason) {
   abort_reason_ = reason;
-  if (current_target_ && visit_state_ != nullptr) {
-    unwind_to(visit_state_);
-    record_.outcome = "failed";
-    record_.reason = reason;
-    record_.retries = retries_taken();
-    records_.push_back(record_);
-    done_.insert(record_.index);
-    publish_done_targets();
-    active_.pop_back();
-    emit(EventType::exit, *visit_state_);
-    current_target_.reset();
-    visit_state_ = nullptr;
-    for (ExecutorObserver* o : observers_) o->on_target_done(records_.back());
-  }
+  if (current_target_ && visit_state_ != nullptr) close_visit("failed", reason);
   unwind_to(nullptr);
   finish_tour(TourOutcome::aborted);
 }
 
-// The visit in progress is not recorded: a resume restarts it from its first state.
+// A visit interrupted before its content was shown is not recorded: a resume restarts it from
+// its first state. One interrupted after `project` succeeded (while `next` stows the head) is
+// recorded as projected, so a resume does not project it a second time.
 void Executor::interrupt() {
+  if (current_target_ && visit_state_ != nullptr && visit_projected_) close_visit("projected", "");
   unwind_to(nullptr);
   finish_tour(TourOutcome::interrupted);
 }

@@ -248,6 +248,10 @@ int graph_command(const RunOptions& options, std::ostream& out, std::ostream& er
 
 int run_command(const RunOptions& options, std::ostream& out, std::ostream& err) {
   const auto wall_start = std::chrono::steady_clock::now();
+  // From the first moment to the last: a SIGINT while loading becomes a cancel the tick loop
+  // honours at once (checkpoint written, resumable), one while the report is written is noted
+  // and the finished tour keeps its outcome.
+  SignalScope signals;
   Diagnostics diag;
   auto prepared = prepare_run(options, PrepareDepth::everything, diag);
   print_diagnostics(diag, err);
@@ -402,7 +406,6 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   const double mission_start_s = clock.now_s();
   const auto pace_start = std::chrono::steady_clock::now();
   {
-    SignalScope signals;
     executor.start();
     while (!executor.finished()) {
       if (g_stop_signal != 0) {

@@ -103,6 +103,7 @@ class Executor {
   void follow(const StateSpec& from, const TransitionSpec& transition, const std::string& reason);
   void complete_composite(const StateSpec& composite);
   void composite_done(const StateSpec& composite);
+  void close_visit(const std::string& outcome, const std::string& reason);
   void end_visit(const std::string& outcome, const std::string& reason);
   void unwind_to(const StateSpec* keep);
   void abort_tour(const std::string& reason);
@@ -138,6 +139,7 @@ class Executor {
   const StateSpec* visit_state_ = nullptr;   // the for_each being visited
   std::map<std::string, int> retries_used_;  // per state path, in the current visit
   TargetRecord record_;
+  bool visit_projected_ = false;  // the project behaviour succeeded in this visit
   std::vector<TargetRecord> records_;
   std::set<std::size_t> done_;
   std::string abort_reason_;
