@@ -406,6 +406,11 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   const double mission_start_s = clock.now_s();
   const auto pace_start = std::chrono::steady_clock::now();
   {
+    if (g_stop_signal != 0) {  // while loading: end before any state is entered
+      g_stop_signal = 0;
+      err << "projtour: interrupted before the tour started\n";
+      executor.request_cancel();
+    }
     executor.start();
     while (!executor.finished()) {
       if (g_stop_signal != 0) {
