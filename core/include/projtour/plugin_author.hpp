@@ -34,8 +34,7 @@ inline void copy_message(const char* message, char* error, size_t error_size) {
 template <typename Base, typename T>
 void* create(const void* params, const void* run, char* error, size_t error_size) noexcept {
   try {
-    Base* object =
-        new T(*static_cast<const Params*>(params), *static_cast<const RunContext*>(run));
+    Base* object = new T(*static_cast<const Params*>(params), *static_cast<const RunContext*>(run));
     return object;
   } catch (const std::exception& e) {
     copy_message(e.what(), error, error_size);
@@ -50,9 +49,27 @@ void destroy(void* object) noexcept {
   delete static_cast<Base*>(object);
 }
 
+template <auto check>
+int validate(const void* params, char* error, size_t error_size) noexcept {
+  try {
+    check(*static_cast<const Params*>(params));
+    return 0;
+  } catch (const std::exception& e) {
+    copy_message(e.what(), error, error_size);
+  }
+  return 1;
+}
+
 }  // namespace projtour::plugin_detail
 
 namespace projtour {
+
+// A kind's load-time validate() from a function that throws on bad values (typically the same
+// settings reader its constructor uses, so load and create check alike).
+template <auto check>
+constexpr projtour_validate_fn validator() {
+  return &plugin_detail::validate<check>;
+}
 
 template <typename T, size_t NP, size_t NO>
 constexpr projtour_kind_desc behaviour_kind(const char* name, const char* description,
@@ -94,9 +111,17 @@ constexpr projtour_kind_desc driver_kind(const char* name, const char* interface
                                          const char* description,
                                          const projtour_param_desc (&params)[NP],
                                          projtour_validate_fn validate = nullptr) {
-  return {name,    PROJTOUR_FAMILY_DRIVER, interface, description,
-          params,  static_cast<uint32_t>(NP), nullptr, 0,
-          &plugin_detail::create<Driver, T>, &plugin_detail::destroy<Driver>, validate};
+  return {name,
+          PROJTOUR_FAMILY_DRIVER,
+          interface,
+          description,
+          params,
+          static_cast<uint32_t>(NP),
+          nullptr,
+          0,
+          &plugin_detail::create<Driver, T>,
+          &plugin_detail::destroy<Driver>,
+          validate};
 }
 
 template <typename T, size_t NP>
@@ -104,18 +129,26 @@ constexpr projtour_kind_desc service_kind(const char* name, const char* role,
                                           const char* description,
                                           const projtour_param_desc (&params)[NP],
                                           projtour_validate_fn validate = nullptr) {
-  return {name,    PROJTOUR_FAMILY_SERVICE, role, description,
-          params,  static_cast<uint32_t>(NP), nullptr, 0,
-          &plugin_detail::create<Service, T>, &plugin_detail::destroy<Service>, validate};
+  return {name,
+          PROJTOUR_FAMILY_SERVICE,
+          role,
+          description,
+          params,
+          static_cast<uint32_t>(NP),
+          nullptr,
+          0,
+          &plugin_detail::create<Service, T>,
+          &plugin_detail::destroy<Service>,
+          validate};
 }
 
 }  // namespace projtour
 
-#define PROJTOUR_PLUGIN(plugin_name, plugin_version, kinds_array)                            \
-  extern "C" __attribute__((visibility("default"))) const projtour_plugin_desc*             \
-  projtour_plugin_descriptor(void) {                                                          \
-    static const projtour_plugin_desc descriptor = {                                          \
-        PROJTOUR_ABI_VERSION, plugin_name, plugin_version, kinds_array,                       \
-        static_cast<uint32_t>(sizeof(kinds_array) / sizeof(kinds_array[0]))};                \
-    return &descriptor;                                                                       \
+#define PROJTOUR_PLUGIN(plugin_name, plugin_version, kinds_array)               \
+  extern "C" __attribute__((visibility("default"))) const projtour_plugin_desc* \
+  projtour_plugin_descriptor(void) {                                            \
+    static const projtour_plugin_desc descriptor = {                            \
+        PROJTOUR_ABI_VERSION, plugin_name, plugin_version, kinds_array,         \
+        static_cast<uint32_t>(sizeof(kinds_array) / sizeof(kinds_array[0]))};   \
+    return &descriptor;                                                         \
   }

@@ -69,16 +69,6 @@ Settings read_settings(const Params& p) {
   return s;
 }
 
-int validate(const void* params, char* error, size_t error_size) {
-  try {
-    read_settings(*static_cast<const Params*>(params));
-    return 0;
-  } catch (const std::exception& e) {
-    plugin_detail::copy_message(e.what(), error, error_size);
-    return 1;
-  }
-}
-
 std::string format_quality(const RegistrationResult& r) {
   std::ostringstream s;
   s.precision(3);
@@ -223,7 +213,7 @@ const projtour_param_desc kAlignParams[] = {
 const char* const kAlignOutcomes[] = {"succeeded", "poor_fit", "no_target"};
 const projtour_kind_desc kKinds[] = {
     behaviour_kind<Align>("align", "ICP of the target's model against the captured depth frame",
-                          kAlignParams, kAlignOutcomes, &validate)};
+                          kAlignParams, kAlignOutcomes, validator<read_settings>())};
 
 }  // namespace
 }  // namespace projtour::align

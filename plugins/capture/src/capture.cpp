@@ -27,16 +27,6 @@ Settings read_settings(const Params& p) {
   return s;
 }
 
-int validate(const void* params, char* error, size_t error_size) {
-  try {
-    read_settings(*static_cast<const Params*>(params));
-    return 0;
-  } catch (const std::exception& e) {
-    plugin_detail::copy_message(e.what(), error, error_size);
-    return 1;
-  }
-}
-
 class Capture : public Behaviour {
  public:
   Capture(const Params& params, const RunContext&) : settings_(read_settings(params)) {}
@@ -96,7 +86,7 @@ const projtour_param_desc kParams[] = {
 const char* const kOutcomes[] = {"succeeded", "no_frame"};
 const projtour_kind_desc kKinds[] = {
     behaviour_kind<Capture>("capture", "a depth frame from the depth camera onto the blackboard",
-                            kParams, kOutcomes, &validate)};
+                            kParams, kOutcomes, validator<read_settings>())};
 
 }  // namespace
 }  // namespace projtour::capture
