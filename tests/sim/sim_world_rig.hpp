@@ -14,7 +14,7 @@ namespace projtour::sim::testing {
 
 // A board 2 cm deep, 40 cm wide, 30 cm high, centred on its origin, front face at x = +1 cm.
 inline std::filesystem::path sign_off() {
-  const auto path = std::filesystem::temp_directory_path() / "projtour_test_sim_sign.off";
+  const auto path = test_temp_path("sign.off");
   std::ofstream out(path);
   out << "OFF\n8 6 0\n";
   for (int i = 0; i < 8; ++i) {

@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include "projtour/model.hpp"
+#include "sim_test_scenes.hpp"
 
 namespace projtour {
 namespace {
@@ -13,7 +14,7 @@ const std::filesystem::path kBunny =
     std::filesystem::path(PROJTOUR_SOURCE_DIR) / "examples/models/bunny.ply";
 
 std::filesystem::path temp_file(const std::string& name, const std::string& text) {
-  const auto path = std::filesystem::temp_directory_path() / ("projtour_test_sim_" + name);
+  const auto path = sim::testing::test_temp_path(name);
   std::ofstream(path) << text;
   return path;
 }

@@ -185,7 +185,7 @@ TEST(SimReferee, WritesBeforeAndAfterViews) {
   const auto px = true_pixels(rig, w);
   auto before = px;
   for (auto& p : before) p += Eigen::Vector2d(40.0, -25.0);
-  const auto dir = std::filesystem::temp_directory_path() / "projtour_test_sim_views";
+  const auto dir = testing::test_temp_path("views");
   std::filesystem::remove_all(dir);
   w.write_projection_views("sign", before, px, dir);
   for (const char* name : {"before.png", "after.png"}) {
@@ -426,7 +426,7 @@ TEST(SimPlugin, ProvidesFiveDriversSharingOneWorld) {
   PluginRegistry registry;
   registry.load_library(std::filesystem::path(PROJTOUR_PLUGIN_BUILD_DIR) / "libprojtour_sim.so");
   Rig rig(1, {2.0, 0.0, 0.0});
-  rig.run.run_dir = std::filesystem::temp_directory_path() / "projtour_test_sim_run";
+  rig.run.run_dir = testing::test_temp_path("run");
   std::filesystem::remove_all(rig.run.run_dir);
   std::vector<std::shared_ptr<Driver>> drivers;
   for (const char* kind :
