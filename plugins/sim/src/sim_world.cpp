@@ -13,6 +13,7 @@
 #include <map>
 #include <mutex>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <random>
 
 #include "projtour/geometry.hpp"
@@ -113,13 +114,20 @@ TriangleMesh perturbed_mesh(const TriangleMesh& mesh, double rms_m, std::mt19937
 }  // namespace
 
 struct SimWorld::Impl {
+  // One physical object. Targets naming the same model at the same true pose are one object
+  // visited again (a long day's tour goes back and forth): it is perturbed and rendered once,
+  // so the world's size follows the objects in the building, not the visits in the mission.
+  struct Object {
+    std::shared_ptr<const TriangleMesh> mesh;  // model frame, the true (perturbed) surface
+    Eigen::Isometry3d T_map_model = Eigen::Isometry3d::Identity();
+    int object_id = 0;
+    std::string model_key;
+    bool missing = false;
+    bool shared = false;  // other targets may stand on it: no fault moves or removes it
+  };
   struct Target {
     const TargetSpec* spec = nullptr;
-    int object_id = 0;
-    Eigen::Isometry3d T_map_model = Eigen::Isometry3d::Identity();
-    TriangleMesh mesh_true;  // model frame, the perturbed surface
-    Scene alone;             // the true mesh in the map frame, nothing else
-    bool missing = false;
+    std::size_t object = 0;  // index into objects
     Pose2D standoff;
     int frames_here = 0;
     int shows_here = 0;
@@ -137,7 +145,11 @@ struct SimWorld::Impl {
   std::uint64_t seed = 1;
   std::shared_ptr<mrpt::maps::COccupancyGridMap2D> grid;  // the map plus added obstacles
 
+  std::vector<Object> objects;
   std::vector<Target> targets;
+  // The referee's scene of one object alone, built when a truth query needs it: only the
+  // object being projected on is ever asked about, so one is kept.
+  mutable std::optional<std::pair<std::size_t, Scene>> alone_cache;
   std::vector<Box2> obstacles;  // blocked_path boxes, for the bumper
   SceneBuilder fixed_parts;     // floor, walls and obstacles: all the scene but the targets
   Scene scene;
@@ -190,6 +202,19 @@ struct SimWorld::Impl {
   }
   const Target* target(const std::string& id) const { return const_cast<Impl*>(this)->target(id); }
 
+  Object& object(const Target& t) { return objects[t.object]; }
+  const Object& object(const Target& t) const { return objects[t.object]; }
+
+  const Scene& alone(const Target& t) const {
+    if (!alone_cache || alone_cache->first != t.object) {
+      const Object& o = object(t);
+      SceneBuilder builder;
+      builder.add_mesh(*o.mesh, o.T_map_model, o.object_id);
+      alone_cache.emplace(t.object, builder.build());
+    }
+    return alone_cache->second;
+  }
+
   const FaultSpec* fault(const std::string& target_id, const std::string& type) const {
     for (const auto& f : world.faults) {
       if (f.target == target_id && f.type == type) return &f;
@@ -207,8 +232,8 @@ struct SimWorld::Impl {
     Target* best = nullptr;
     double best_d = 0.0;
     for (auto& t : targets) {
-      const double d = std::hypot(t.T_map_model.translation().x() - p.x_m,
-                                  t.T_map_model.translation().y() - p.y_m);
+      const Eigen::Vector3d c = object(t).T_map_model.translation();
+      const double d = std::hypot(c.x() - p.x_m, c.y() - p.y_m);
       if (d <= t.spec->standoff_m + 1.5 && (best == nullptr || d < best_d)) {
         best = &t;
         best_d = d;
@@ -352,8 +377,8 @@ struct SimWorld::Impl {
   // The camera's scene is rebuilt whenever a target moves (a BVH cannot move one object).
   void rebuild_scene() {
     SceneBuilder builder = fixed_parts;
-    for (const Target& t : targets) {
-      if (!t.missing) builder.add_mesh(t.mesh_true, t.T_map_model, t.object_id);
+    for (const Object& o : objects) {
+      if (!o.missing) builder.add_mesh(*o.mesh, o.T_map_model, o.object_id);
     }
     scene = builder.build();
   }
@@ -372,12 +397,11 @@ struct SimWorld::Impl {
       const double direction_rad = deg_to_rad(fault_value(*f, "direction_deg", 90.0));
       shift_map = {distance_m * std::cos(direction_rad), distance_m * std::sin(direction_rad), 0.0};
     }
-    t->T_map_model.pretranslate(shift_map);
-    t->T_map_model.rotate(
+    Object& o = object(*t);  // a nudged target's object is its own (see Object::shared)
+    o.T_map_model.pretranslate(shift_map);
+    o.T_map_model.rotate(
         Eigen::AngleAxisd(deg_to_rad(fault_value(*f, "yaw_deg", 0.0)), Eigen::Vector3d::UnitZ()));
-    SceneBuilder alone;
-    alone.add_mesh(t->mesh_true, t->T_map_model, t->object_id);
-    t->alone = alone.build();
+    alone_cache.reset();
     rebuild_scene();
   }
 
@@ -468,45 +492,61 @@ SimWorld::SimWorld(const RunContext& run) : impl_(std::make_unique<Impl>()) {
   SceneBuilder& builder = w.fixed_parts;
   builder.set_floor(0.0, kFloorId);
   if (w.grid) builder.add_occupancy_walls(*w.grid, 2.0, kWallId);
-  std::map<std::string, TriangleMesh> meshes;  // by model file: targets may share one
+  // By model file: targets may share one.
+  std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
   for (std::size_t i = 0; i < run.mission->targets.size(); ++i) {
     const TargetSpec& spec = run.mission->targets[i];
     Impl::Target t;
     t.spec = &spec;
-    t.object_id = kFirstTargetId + static_cast<int>(i);
     t.standoff = standoff_pose(spec);
+    Eigen::Isometry3d T_map_model = Eigen::Isometry3d::Identity();
     const auto listed = w.world.T_map_model_true.find(spec.id);
     // Offsets are drawn for every target, listed or not, so listing one does not move another.
     const double r = w.world.target_offset_max_m * std::sqrt(uniform(setup, 0, 1));
     const double a = uniform(setup, 0, 2 * kPi);
     const double yaw = deg_to_rad(w.world.target_offset_max_deg) * uniform(setup, -1, 1);
     if (listed != w.world.T_map_model_true.end()) {
-      t.T_map_model = listed->second;
+      T_map_model = listed->second;
     } else {
       Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
       shift.translation() = Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0.0);
-      t.T_map_model = shift * spec.T_map_model * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ());
+      T_map_model = shift * spec.T_map_model * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ());
     }
     const std::string key = spec.model.string();
     if (!meshes.count(key)) {
       try {
-        meshes[key] = load_mesh(spec.model);
+        meshes[key] = std::make_shared<const TriangleMesh>(load_mesh(spec.model));
       } catch (const std::exception& e) {
         throw std::runtime_error(std::string("simulated world: target '") + spec.id +
                                  "': the simulator renders meshes: " + e.what());
       }
     }
-    t.mesh_true = w.world.model_error
-                      ? perturbed_mesh(meshes[key], w.world.model_error_noise_mm * 1e-3, setup)
-                      : meshes[key];
-    SceneBuilder alone;
-    alone.add_mesh(t.mesh_true, t.T_map_model, t.object_id);
-    t.alone = alone.build();
-    t.missing = w.fault(spec.id, "target_missing") != nullptr;
+    const bool missing = w.fault(spec.id, "target_missing") != nullptr;
+    const bool shareable = !missing && w.fault(spec.id, "target_nudge") == nullptr;
+    t.object = w.objects.size();
+    for (std::size_t k = 0; shareable && k < w.objects.size(); ++k) {
+      const Impl::Object& o = w.objects[k];
+      if (o.shared && o.model_key == key && o.T_map_model.matrix() == T_map_model.matrix()) {
+        t.object = k;
+        break;
+      }
+    }
+    if (t.object == w.objects.size()) {
+      Impl::Object o;
+      o.mesh = w.world.model_error ? std::make_shared<const TriangleMesh>(perturbed_mesh(
+                                         *meshes[key], w.world.model_error_noise_mm * 1e-3, setup))
+                                   : meshes[key];
+      o.T_map_model = T_map_model;
+      o.object_id = kFirstTargetId + static_cast<int>(w.objects.size());
+      o.model_key = key;
+      o.missing = missing;
+      o.shared = shareable;
+      w.objects.push_back(std::move(o));
+    }
 
     if (const FaultSpec* f = w.fault(spec.id, "occluder")) {
       // A board hanging above the laser plane between the target and its stand-off pose.
-      const Eigen::Vector3d c = t.T_map_model.translation();
+      const Eigen::Vector3d c = T_map_model.translation();
       Eigen::Vector2d dir(t.standoff.x_m - c.x(), t.standoff.y_m - c.y());
       dir = dir.norm() > 1e-9 ? dir.normalized() : Eigen::Vector2d::UnitX();
       const double d = fault_value(*f, "distance_m", 0.5);
@@ -757,7 +797,7 @@ std::string SimWorld::active_target() const {
 const TriangleMesh& SimWorld::true_mesh(const std::string& target_id) const {
   const Impl::Target* t = impl_->target(target_id);
   if (t == nullptr) throw std::out_of_range("simulated world: no target '" + target_id + "'");
-  return t->mesh_true;
+  return *impl_->object(*t).mesh;
 }
 
 void SimWorld::set_true_base_pose(const Pose2D& pose) {
@@ -779,16 +819,16 @@ Eigen::Isometry3d SimWorld::true_T_map_projector() const {
 Eigen::Isometry3d SimWorld::true_T_map_model(const std::string& target_id) const {
   const Impl::Target* t = impl_->target(target_id);
   if (t == nullptr) throw std::out_of_range("simulated world: no target '" + target_id + "'");
-  return t->T_map_model;
+  return impl_->object(*t).T_map_model;
 }
 
 std::optional<ProjectionTruth> SimWorld::evaluate_projection(
     const std::string& target_id, const std::array<Eigen::Vector2d, 4>& projector_px) const {
   const Impl::Target* t = impl_->target(target_id);
   if (t == nullptr) return std::nullopt;
-  const TrueProjection truth =
-      true_projection(*t->spec, t->T_map_model, t->alone, true_T_map_projector(),
-                      impl_->mission->robot.projector.intrinsics, projector_px);
+  const TrueProjection truth = true_projection(
+      *t->spec, impl_->object(*t).T_map_model, impl_->alone(*t), true_T_map_projector(),
+      impl_->mission->robot.projector.intrinsics, projector_px);
   ProjectionTruth out;
   for (int i = 0; i < 4; ++i) {
     out.error_mm[i] = 1000.0 * (truth.landed_map[i] - truth.model_points_map[i]).norm();
@@ -805,14 +845,16 @@ void SimWorld::write_projection_views(const std::string& target_id,
   if (t == nullptr) throw std::out_of_range("simulated world: no target '" + target_id + "'");
   const Eigen::Isometry3d T_map_projector = true_T_map_projector();
   const PinholeModel& k = impl_->mission->robot.projector.intrinsics;
+  const Eigen::Isometry3d& T_map_model = impl_->object(*t).T_map_model;
+  const Scene& alone = impl_->alone(*t);
   std::filesystem::create_directories(dir);
   write_projection_view(
-      t->alone, t->T_map_model,
-      true_projection(*t->spec, t->T_map_model, t->alone, T_map_projector, k, pixels_before_align),
+      alone, T_map_model,
+      true_projection(*t->spec, T_map_model, alone, T_map_projector, k, pixels_before_align),
       "before alignment", dir / "before.png");
   write_projection_view(
-      t->alone, t->T_map_model,
-      true_projection(*t->spec, t->T_map_model, t->alone, T_map_projector, k, pixels_after_align),
+      alone, T_map_model,
+      true_projection(*t->spec, T_map_model, alone, T_map_projector, k, pixels_after_align),
       "after alignment", dir / "after.png");
 }
 
