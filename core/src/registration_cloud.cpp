@@ -127,22 +127,12 @@ OrganizedCloud crop_sphere(const DepthFrame& frame, const Eigen::Vector3d& depth
     v_hi = std::clamp(static_cast<int>(std::ceil(pv_hi)) + 1, 0, frame.height);
   }
   const int w = std::max(0, u_hi - u_lo), h = std::max(0, v_hi - v_lo);
-  OrganizedCloud cloud;
-  cloud.intrinsics = frame.intrinsics;
-  cloud.intrinsics.width = frame.width;
-  cloud.intrinsics.height = frame.height;
-  cloud.depth_to_color_m = depth_to_color_m.cast<float>();
-  cloud.u0 = u_lo;
-  cloud.v0 = v_lo;
-  cloud.width = w;
-  cloud.height = h;
-  cloud.points.resize(static_cast<std::size_t>(w) * h);  // every element written below
+  OrganizedCloud cloud = empty_window(frame, depth_to_color_m, u_lo, v_lo, w, h);
 
   const RayMaker rays(frame.intrinsics);
   const Eigen::Vector3f cf = c.cast<float>();
   const float r2 = static_cast<float>(r * r);
   const float z_min = static_cast<float>(std::max(0.0, z_near)), z_max = static_cast<float>(z_far);
-  const Eigen::Vector3f none = Eigen::Vector3f::Constant(kNaN);
   for (int j = 0; j < h; ++j) {
     const int v = v_lo + j;
     const std::uint16_t* depth = &frame.depth_mm[static_cast<std::size_t>(v) * frame.width];
@@ -150,7 +140,6 @@ OrganizedCloud crop_sphere(const DepthFrame& frame, const Eigen::Vector3d& depth
     for (int i = 0; i < w; ++i) {
       const int u = u_lo + i;
       const float z = depth[u] * 0.001f;
-      out[i] = none;
       if (depth[u] == 0 || z < z_min || z > z_max) continue;  // cheap rejection before the ray
       const Eigen::Vector2f ray = rays.ray(u, v);
       const Eigen::Vector3f p(ray.x() * z, ray.y() * z, z);

@@ -13,6 +13,7 @@
 #include "content_source.hpp"
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/kinematics.hpp"
+#include "projtour/model.hpp"
 #include "projtour/plugin_author.hpp"
 #include "projtour/projection.hpp"
 #include "tracker.hpp"
@@ -331,7 +332,7 @@ const projtour_param_desc kParams[] = {
     {"track_threshold_deg", "number", "0.5", "track: ... or the target turns more than this"},
     {"track_min_inlier_fraction", "number", "0.6",
      "track: a frame whose fit has fewer inliers is skipped"},
-    {"track_model_spacing_m", "number", "0.003",
+    {"track_model_spacing_m", "number", kDefaultModelSpacingM,
      "track: spacing of the points resampled on the model (align's model_spacing_m)"},
     {"track_crop_margin_m", "number", "0.05",
      "track: each frame is cropped to the model's bounding sphere plus this"},

@@ -21,7 +21,7 @@ struct TrackSettings {
   double threshold_mm = 1.0;   // re-warp when a Model Point moves more (projector frame)
   double threshold_deg = 0.5;  // ... or the target turns more
   double min_inlier_fraction = 0.6;
-  double model_spacing_m = 0.003;  // align's default: the same model the pose came from
+  double model_spacing_m = 0.0;  // from the parameters (default kDefaultModelSpacingM)
   double crop_margin_m = 0.05;
 };
 

@@ -26,6 +26,10 @@ struct ModelCloud {
 // at about `spacing_m`; a point cloud (PCD, or PLY without faces) keeps its points and gets
 // normals estimated. Normals are computed once, here. Throws std::runtime_error naming the file.
 ModelCloud load_model_cloud(const std::filesystem::path& file, double spacing_m);
+// align and project's `track` resample a model at the same spacing unless told otherwise, so
+// the pose track follows comes from the model align fitted. Text: it is a parameter default.
+inline constexpr const char* kDefaultModelSpacingM = "0.003";
+
 // Same, from a mesh in memory (deterministic for a given seed).
 ModelCloud sample_mesh(const TriangleMesh& mesh, double spacing_m, unsigned seed = 1);
 

@@ -8,6 +8,7 @@
 #include "pcl_registration.hpp"
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/kinematics.hpp"
+#include "projtour/model.hpp"
 #include "projtour/plugin_author.hpp"
 #include "projtour/registration.hpp"
 
@@ -26,7 +27,7 @@ bool parse_method(const std::string& text, Method& out) {
 struct Settings {
   Method method = Method::projective_icp;
   std::string method_name;
-  double model_spacing_m = 0.003;
+  double model_spacing_m = 0.0;  // from the parameters (default kDefaultModelSpacingM)
   double crop_margin_m = 0.1;
   long long min_points = 500;
   double min_inlier_fraction = 0.6;
@@ -198,7 +199,8 @@ class Align : public Behaviour {
 
 const projtour_param_desc kAlignParams[] = {
     {"method", "string", "projective_icp", "projective_icp | pcl_icp | pcl_gicp"},
-    {"model_spacing_m", "number", "0.003", "spacing of the points resampled on the model"},
+    {"model_spacing_m", "number", kDefaultModelSpacingM,
+     "spacing of the points resampled on the model"},
     {"crop_margin_m", "number", "0.1",
      "the frame is cropped to the model's bounding sphere plus this around the guess"},
     {"min_points", "integer", "500", "fewer points in the crop: no_target"},
