@@ -167,7 +167,8 @@ class TickWatchdog {
 };
 
 // What tour.png shows: the estimated and (dry run) true trajectories, sampled every half second
-// of mission time, and the last path planned in each visit.
+// of mission time, and the last path planned in each visit. Each visit's part is simplified to
+// within a centimetre (a fraction of a pixel) when it ends, so a long day's trace stays small.
 class TourTrace : public ExecutorObserver {
  public:
   explicit TourTrace(const RunContext& run) : run_(run) {}
@@ -187,8 +188,10 @@ class TourTrace : public ExecutorObserver {
     }
   }
   void on_target_done(const TargetRecord&) override {
-    if (!visit_path_.empty()) paths_.push_back(std::move(visit_path_));
+    if (!visit_path_.empty()) paths_.push_back(simplify_polyline(visit_path_, kToleranceM));
     visit_path_.clear();
+    simplify_tail(estimated_, estimated_simplified_);
+    simplify_tail(true_, true_simplified_);
   }
 
   TourPictureInput picture(const MissionSpec& mission,
@@ -212,8 +215,20 @@ class TourTrace : public ExecutorObserver {
   }
 
  private:
+  // The samples since the last visit ended, from the last vertex already kept.
+  static void simplify_tail(std::vector<Pose2D>& line, std::size_t& simplified) {
+    const std::size_t first = simplified == 0 ? 0 : simplified - 1;
+    const std::vector<Pose2D> tail =
+        simplify_polyline(std::vector<Pose2D>(line.begin() + first, line.end()), kToleranceM);
+    line.erase(line.begin() + first, line.end());
+    line.insert(line.end(), tail.begin(), tail.end());
+    simplified = line.size();
+  }
+
   static constexpr double kSamplePeriodS = 0.5;
+  static constexpr double kToleranceM = 0.01;
   const RunContext& run_;
+  std::size_t estimated_simplified_ = 0, true_simplified_ = 0;
   double last_sample_s_ = -1e9;
   std::vector<Pose2D> estimated_;
   std::vector<Pose2D> true_;

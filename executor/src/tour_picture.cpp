@@ -197,6 +197,40 @@ std::pair<double, int> scale_bar(const View& v, int width_px) {
 
 }  // namespace
 
+std::vector<Pose2D> simplify_polyline(const std::vector<Pose2D>& points, double tolerance_m) {
+  if (points.size() <= 2) return points;
+  const auto distance_to_segment_m = [](const Pose2D& p, const Pose2D& a, const Pose2D& b) {
+    const Eigen::Vector2d ab(b.x_m - a.x_m, b.y_m - a.y_m), ap(p.x_m - a.x_m, p.y_m - a.y_m);
+    const double len2 = ab.squaredNorm();
+    const double s = len2 > 0.0 ? std::clamp(ap.dot(ab) / len2, 0.0, 1.0) : 0.0;
+    return (ap - s * ab).norm();
+  };
+  std::vector<bool> keep(points.size(), false);
+  keep.front() = keep.back() = true;
+  // An explicit stack: a day's trace is long enough that recursion depth is not a given.
+  std::vector<std::pair<std::size_t, std::size_t>> spans{{0, points.size() - 1}};
+  while (!spans.empty()) {
+    const auto [first, last] = spans.back();
+    spans.pop_back();
+    double worst_m = -1.0;
+    std::size_t worst = first;
+    for (std::size_t i = first + 1; i < last; ++i) {
+      const double d = distance_to_segment_m(points[i], points[first], points[last]);
+      if (d > worst_m) worst_m = d, worst = i;
+    }
+    if (worst_m > tolerance_m) {
+      keep[worst] = true;
+      spans.push_back({first, worst});
+      spans.push_back({worst, last});
+    }
+  }
+  std::vector<Pose2D> out;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (keep[i]) out.push_back(points[i]);
+  }
+  return out;
+}
+
 RgbColour outcome_colour(const std::string& outcome) {
   if (outcome == "projected") return {0, 170, 0};
   if (outcome == "skipped") return {255, 140, 0};

@@ -160,6 +160,26 @@ TEST(TourPicture, WritesAPng) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(SimplifyPolyline, DropsStandingAndStraightSamplesAndKeepsCornersAndTurnarounds) {
+  std::vector<Pose2D> trace;
+  for (int i = 0; i < 20; ++i) trace.push_back({0.0, 0.0, 0.0});                  // standing
+  for (int i = 1; i <= 40; ++i) trace.push_back({0.1 * i, 0.0, 0.0});             // out to 4 m
+  for (int i = 1; i <= 20; ++i) trace.push_back({4.0, 0.1 * i, kPi / 2});         // a corner
+  for (int i = 1; i <= 20; ++i) trace.push_back({4.0, 2.0 - 0.1 * i, -kPi / 2});  // and back
+  trace.push_back({4.0, 0.003, 0.0});  // within the tolerance of the line: dropped
+  trace.push_back({3.0, 0.0, kPi});
+  const auto kept = simplify_polyline(trace, 0.01);
+  ASSERT_EQ(kept.size(), 5u);
+  const std::vector<std::pair<double, double>> expected{
+      {0.0, 0.0}, {4.0, 0.0}, {4.0, 2.0}, {4.0, 0.0}, {3.0, 0.0}};
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    EXPECT_NEAR(kept[i].x_m, expected[i].first, 1e-9) << i;
+    EXPECT_NEAR(kept[i].y_m, expected[i].second, 1e-9) << i;
+  }
+  EXPECT_TRUE(simplify_polyline({}, 0.01).empty());
+  EXPECT_EQ(simplify_polyline({{1.0, 2.0, 0.0}}, 0.01).size(), 1u);
+}
+
 TEST(TourPicture, RequiresAMap) {
   TourPictureInput in = make_input();
   in.map.reset();

@@ -43,6 +43,12 @@ inline constexpr RgbColour kTrueTrajectoryColour{0, 160, 160};
 inline constexpr RgbColour kStartColour{20, 20, 20};
 RgbColour outcome_colour(const std::string& outcome);
 
+// The polyline without the vertices that lie within `tolerance_m` of the segment between the
+// vertices kept around them (Douglas-Peucker); the ends are always kept. A tour's trace kept
+// this way grows with the corners driven, not with the time spent standing or going straight,
+// which is what lets a long day keep it all for the picture.
+std::vector<Pose2D> simplify_polyline(const std::vector<Pose2D>& points, double tolerance_m);
+
 // The picture as an 8-bit BGR image: y up in the map is up in the picture, at least 4 px per
 // cell unless that would make the long side exceed ~1600 px; a legend strip below the map.
 // Throws std::invalid_argument without a map.
