@@ -4,6 +4,7 @@
 // moves; the step succeeds once the driver reports the angles reached and `settle_s` has passed.
 #include <cmath>
 #include <sstream>
+#include <stdexcept>
 
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/kinematics.hpp"
@@ -111,20 +112,13 @@ class Aim : public Behaviour {
   std::optional<double> reached_at_s_;
 };
 
-int validate(const void* params_ptr, char* error, size_t error_size) {
-  const Params& params = *static_cast<const Params*>(params_ptr);
+void check_params(const Params& params) {
   const std::string& aim_at = params.string("aim_at");
   if (aim_at != "model_points" && aim_at != "origin") {
-    plugin_detail::copy_message(
-        ("aim_at must be \"model_points\" or \"origin\", not \"" + aim_at + "\"").c_str(), error,
-        error_size);
-    return 1;
+    throw std::invalid_argument("aim_at must be \"model_points\" or \"origin\", not \"" + aim_at +
+                                "\"");
   }
-  if (params.number("settle_s") < 0) {
-    plugin_detail::copy_message("settle_s must be >= 0", error, error_size);
-    return 1;
-  }
-  return 0;
+  if (params.number("settle_s") < 0) throw std::invalid_argument("settle_s must be >= 0");
 }
 
 const projtour_param_desc kParams[] = {
@@ -134,7 +128,7 @@ const projtour_param_desc kParams[] = {
 const char* const kOutcomes[] = {"succeeded", "out_of_reach"};
 const projtour_kind_desc kKinds[] = {behaviour_kind<Aim>(
     "aim", "pan-tilt inverse kinematics: projector optical axis onto the target", kParams,
-    kOutcomes, &validate)};
+    kOutcomes, validator<check_params>())};
 
 }  // namespace
 }  // namespace projtour

@@ -1,23 +1,21 @@
 // Plugin `navigate`: behaviours navigate and relocalize.
 #include "navigate.hpp"
+
+#include <stdexcept>
+#include <string>
+
 #include "projtour/plugin_author.hpp"
 
 namespace projtour::navigate {
 namespace {
 
-int validate_navigate(const void* raw, char* error, size_t error_size) {
-  const Params& p = *static_cast<const Params*>(raw);
-  std::string why;
+void check_navigate_params(const Params& p) {
   for (const char* name : {"tolerance_m", "tolerance_deg", "lookahead_m", "blocked_s", "timeout_s",
                            "lost_std_m", "lost_unconverged_s", "obstacle_lookahead_m"}) {
     if (!(p.number(name) > 0.0)) {
-      why = std::string(name) + ": expected a positive number";
-      break;
+      throw std::invalid_argument(std::string(name) + ": expected a positive number");
     }
   }
-  if (why.empty()) return 0;
-  plugin_detail::copy_message(why.c_str(), error, error_size);
-  return 1;
 }
 
 const projtour_param_desc kNavigateParams[] = {
@@ -47,7 +45,7 @@ const char* const kRelocalizeOutcomes[] = {"succeeded", "lost"};
 const projtour_kind_desc kKinds[] = {
     projtour::behaviour_kind<Navigate>(
         "navigate", "plan to the target's stand-off pose on the inflated grid and drive there",
-        kNavigateParams, kNavigateOutcomes, &validate_navigate),
+        kNavigateParams, kNavigateOutcomes, projtour::validator<check_navigate_params>()),
     projtour::behaviour_kind<Relocalize>(
         "relocalize", "spin in place with a widened particle cloud until localization converges",
         kRelocalizeParams, kRelocalizeOutcomes),

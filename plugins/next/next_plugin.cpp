@@ -8,6 +8,7 @@
 #include <limits>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
 
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/occupancy_map.hpp"
@@ -114,23 +115,20 @@ class Next : public Behaviour {
   bool warned_no_map_ = false;
 };
 
-int validate(const void* params_ptr, char* error, size_t error_size) {
-  const std::string& order = static_cast<const Params*>(params_ptr)->string("order");
+void check_params(const Params& params) {
+  const std::string& order = params.string("order");
   if (!order.empty() && order != "mission" && order != "nearest") {
-    plugin_detail::copy_message(
-        ("order must be \"mission\" or \"nearest\", not \"" + order + "\"").c_str(), error,
-        error_size);
-    return 1;
+    throw std::invalid_argument("order must be \"mission\" or \"nearest\", not \"" + order + "\"");
   }
-  return 0;
 }
 
 const projtour_param_desc kParams[] = {
     {"order", "string", "",
      "mission | nearest (by path length on the map); empty = the mission's `order`"}};
 const char* const kOutcomes[] = {"succeeded", "finished"};
-const projtour_kind_desc kKinds[] = {behaviour_kind<Next>(
-    "next", "blank, stow the head and choose the next target", kParams, kOutcomes, &validate)};
+const projtour_kind_desc kKinds[] = {
+    behaviour_kind<Next>("next", "blank, stow the head and choose the next target", kParams,
+                         kOutcomes, validator<check_params>())};
 
 }  // namespace
 }  // namespace projtour

@@ -9,6 +9,7 @@
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
+#include <stdexcept>
 
 #include "content_source.hpp"
 #include "projtour/blackboard_keys.hpp"
@@ -307,20 +308,11 @@ class Project : public Behaviour {
   double paused_total_s_ = 0.0;
 };
 
-int validate(const void* params_ptr, char* error, size_t error_size) {
-  const Params& params = *static_cast<const Params*>(params_ptr);
+void check_params(const Params& params) {
   if (params.number("planarity_warn_mm") < 0 || params.number("min_area_px2") < 0) {
-    plugin_detail::copy_message("planarity_warn_mm and min_area_px2 must be >= 0", error,
-                                error_size);
-    return 1;
+    throw std::invalid_argument("planarity_warn_mm and min_area_px2 must be >= 0");
   }
-  try {
-    read_track_settings(params);
-  } catch (const std::exception& e) {
-    plugin_detail::copy_message(e.what(), error, error_size);
-    return 1;
-  }
-  return 0;
+  read_track_settings(params);
 }
 
 const projtour_param_desc kParams[] = {
@@ -342,7 +334,7 @@ const projtour_param_desc kParams[] = {
 const char* const kOutcomes[] = {"succeeded", "off_screen"};
 const projtour_kind_desc kKinds[] = {behaviour_kind<Project>(
     "project", "warp the content onto the Model Points and show it for the dwell time", kParams,
-    kOutcomes, &validate)};
+    kOutcomes, validator<check_params>())};
 
 }  // namespace
 }  // namespace projtour

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <stdexcept>
 
 #include "projtour/plugin_author.hpp"
 
@@ -83,16 +84,12 @@ class PtuDPerception : public PanTiltDriver {
   bool has_command_ = false;
 };
 
-int validate(const void* params_ptr, char* error, size_t error_size) {
-  const Params& params = *static_cast<const Params*>(params_ptr);
+void check_params(const Params& params) {
   for (const char* name : {"pan_sign", "tilt_sign"}) {
     if (std::abs(std::abs(params.number(name)) - 1.0) > 1e-12) {
-      plugin_detail::copy_message((std::string(name) + " must be 1 or -1").c_str(), error,
-                                  error_size);
-      return 1;
+      throw std::invalid_argument(std::string(name) + " must be 1 or -1");
     }
   }
-  return 0;
 }
 
 const projtour_param_desc kParams[] = {
@@ -102,7 +99,7 @@ const projtour_param_desc kParams[] = {
 
 const projtour_kind_desc kKinds[] = {driver_kind<PtuDPerception>(
     "ptu_dperception", "pan_tilt", "Directed Perception PTU over a serial port (MRPT)", kParams,
-    &validate)};
+    validator<check_params>())};
 
 }  // namespace
 }  // namespace projtour
