@@ -95,6 +95,22 @@ void assign_driver(DriverSet& set, const std::string& interface, std::shared_ptr
   if (interface == "projector") set.projector = std::dynamic_pointer_cast<ProjectorDriver>(d);
 }
 
+// Tells the simulated world which target each visit is for (GroundTruth::set_visited_target).
+class VisitToTruth : public ExecutorObserver {
+ public:
+  explicit VisitToTruth(GroundTruth* truth) : truth_(truth) {}
+  void on_event(const ExecutorEvent& event) override {
+    if (truth_ == nullptr || event.type != EventType::enter || !event.target) return;
+    if (*event.target == visited_) return;
+    visited_ = *event.target;
+    truth_->set_visited_target(visited_);
+  }
+
+ private:
+  GroundTruth* truth_;
+  std::string visited_;
+};
+
 class TargetDoneHook : public ExecutorObserver {
  public:
   explicit TargetDoneHook(std::function<void()> hook) : hook_(std::move(hook)) {}
@@ -377,6 +393,8 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   };
   TargetDoneHook checkpoint_hook(write_checkpoint);
   TourTrace trace(run);
+  VisitToTruth visit_to_truth(run.drivers->ground_truth());
+  executor.add_observer(&visit_to_truth);
   executor.add_observer(&trace);
   executor.add_observer(&events);
   executor.add_observer(&progress);

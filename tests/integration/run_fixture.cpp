@@ -20,8 +20,8 @@ DryRunResult DryRunTest::dry_run(const std::string& world, const std::string& na
                                  const std::vector<std::string>& extra) {
   DryRunResult r;
   r.dir = dir_ / name;
-  r.exit_code = run_projtour(
-      dry_run_args(data_dir() / "short_tour.yaml", data_dir() / world, r.dir, extra), dir_ / name);
+  r.exit_code = run_projtour(dry_run_args(data_dir() / mission_, data_dir() / world, r.dir, extra),
+                             dir_ / name);
   r.err = read_text(dir_ / (name + ".stderr"));
   try {
     r.report = read_json(r.dir / "report.json");

@@ -20,13 +20,15 @@ class DryRunTest : public ::testing::Test {
   void SetUp() override;
   void TearDown() override;
 
-  // Runs tests/integration/data/short_tour.yaml in `world` (a file in data/) into dir_/name.
+  // Runs the mission `mission_` (default short_tour.yaml) in `world`, both files in data/, into
+  // dir_/name.
   // Fails the test when the run directory holds an unparsable file or the projector was lit
   // while something moved.
   DryRunResult dry_run(const std::string& world, const std::string& name,
                        const std::vector<std::string>& extra = {});
 
   fs::path dir_;
+  std::string mission_ = "short_tour.yaml";
 };
 
 }  // namespace projtour::integration

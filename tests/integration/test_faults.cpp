@@ -91,6 +91,21 @@ TEST_F(Faults, AllFramesDroppedRetriesCaptureThenSkips) {
   EXPECT_EQ(report_target(r.report, kFaulted).at("retries").as_int(), 2);
 }
 
+// Regression: a fault on a revisit acted on the first visit to that place, since the two
+// targets are one object, equally near the robot. The executor now tells the simulated world
+// which visit is under way.
+TEST_F(Faults, AFaultOnARevisitActsOnTheRevisitOnly) {
+  mission_ = "revisit_tour.yaml";
+  const DryRunResult r = run_fault("w_revisit_frames_lost.yaml", 3);
+  EXPECT_EQ(report_target(r.report, kFaulted).at("outcome").as_string(), "projected");
+  EXPECT_EQ(join(outcome_chain(r.events, "rabbit-again")),
+            "navigate:succeeded > aim:succeeded > capture:no_frame > capture:no_frame > "
+            "capture:no_frame > skip_target");
+  const Json& again = report_target(r.report, "rabbit-again");
+  EXPECT_EQ(again.at("outcome").as_string(), "skipped");
+  EXPECT_EQ(again.at("reason").as_string().rfind("no_frame:", 0), 0u) << again.dump();
+}
+
 // The target is gone: align finds no points where it should stand, re-aims once (aim's one
 // retry), finds nothing again and the target is skipped with align's reason.
 TEST_F(Faults, TargetMissingReAimsThenSkips) {

@@ -316,6 +316,33 @@ TEST(SimFaults, FrameDropoutAndCameraDisconnect) {
   EXPECT_THROW(g.grab(), DriverError);
 }
 
+// Regression: a fault on a revisit (a target on the same object as an earlier one) acted on the
+// first target of that place instead, since the two are equally near the robot.
+TEST(SimFaults, AFaultOnARevisitActsOnThatVisitOnly) {
+  Rig rig(1, {2.0, 0.0, 0.0});
+  rig.mission.targets.push_back(rig.mission.targets[0]);
+  rig.mission.targets.back().id = "sign-again";
+  rig.world.faults.push_back({"sign-again", "frame_dropout", {{"fraction", 1.0}}, {}});
+  SimWorld& w = rig.make();
+  ASSERT_EQ(&w.true_mesh("sign-again"), &w.true_mesh("sign"));
+  // The valid pixels of the next frame, visiting `id` ("" = no visit named yet).
+  const auto next_frame_pixels = [&](const std::string& id) -> std::size_t {
+    if (!id.empty()) w.set_visited_target(id);
+    rig.run_until(w.time_s() + 0.1);
+    const auto frame = w.grab();
+    return frame ? frame->valid_count() : 0u;
+  };
+  EXPECT_GT(next_frame_pixels(""), 1000u);
+  EXPECT_EQ(w.active_target(), "sign");  // no visit named: the mission's first
+  EXPECT_EQ(next_frame_pixels("sign-again"), 0u);
+  EXPECT_EQ(w.active_target(), "sign-again");
+  EXPECT_GT(next_frame_pixels("sign"), 1000u);
+  EXPECT_EQ(w.active_target(), "sign");
+  // An id the world does not know names no visit: the mission's first again.
+  w.set_visited_target("no-such-target");
+  EXPECT_EQ(w.active_target(), "sign");
+}
+
 TEST(SimFaults, KidnapOnArrival) {
   Rig rig(1, {1.0, 0.0, 0.0});
   rig.world.faults.push_back({"sign", "kidnap", {{"distance_m", 1.0}}, {}});

@@ -147,6 +147,7 @@ struct SimWorld::Impl {
 
   std::vector<Object> objects;
   std::vector<Target> targets;
+  std::optional<std::size_t> visited;  // index into targets, from set_visited_target
   // The referee's scene of one object alone, built when a truth query needs it: only the
   // object being projected on is ever asked about, so one is kept.
   mutable std::optional<std::pair<std::size_t, Scene>> alone_cache;
@@ -227,14 +228,18 @@ struct SimWorld::Impl {
     return {p.x, p.y, p.phi};
   }
 
+  // The target the robot is at: the nearest within reach of its stand-off pose. Targets at one
+  // place (an object visited again) are equally near; the visit under way is the one meant.
   Target* active() {
     const Pose2D p = true_pose();
     Target* best = nullptr;
     double best_d = 0.0;
-    for (auto& t : targets) {
+    for (std::size_t i = 0; i < targets.size(); ++i) {
+      Target& t = targets[i];
       const Eigen::Vector3d c = object(t).T_map_model.translation();
       const double d = std::hypot(c.x() - p.x_m, c.y() - p.y_m);
-      if (d <= t.spec->standoff_m + 1.5 && (best == nullptr || d < best_d)) {
+      if (d > t.spec->standoff_m + 1.5) continue;
+      if (best == nullptr || d < best_d || (d == best_d && visited == i)) {
         best = &t;
         best_d = d;
       }
@@ -835,6 +840,12 @@ std::optional<ProjectionTruth> SimWorld::evaluate_projection(
     out.error_px[i] = truth.error_px[i];
   }
   return out;
+}
+
+void SimWorld::set_visited_target(const std::string& target_id) {
+  const Impl::Target* t = impl_->target(target_id);
+  impl_->visited.reset();
+  if (t != nullptr) impl_->visited = static_cast<std::size_t>(t - impl_->targets.data());
 }
 
 void SimWorld::write_projection_views(const std::string& target_id,

@@ -111,6 +111,7 @@ class SimWorld : public GroundTruth {
   std::optional<ProjectionTruth> evaluate_projection(
       const std::string& target_id,
       const std::array<Eigen::Vector2d, 4>& projector_px) const override;
+  void set_visited_target(const std::string& target_id) override;
   void write_projection_views(const std::string& target_id,
                               const std::array<Eigen::Vector2d, 4>& pixels_before_align,
                               const std::array<Eigen::Vector2d, 4>& pixels_after_align,
