@@ -121,15 +121,21 @@ void draw_polyline(cv::Mat& img, const View& v, const std::vector<Pose2D>& poses
 }
 
 // Beside a marker: above right by default, flipped left or below where it would leave the
-// picture.
+// picture; where neither side has room (a long id in a narrow corridor's picture), centred
+// above the marker and kept inside.
 void draw_label(cv::Mat& img, const std::string& text, const cv::Point2d& marker_px, int radius_px,
                 double scale) {
   int base = 0;
   const cv::Size size = cv::getTextSize(text, kFont, scale, 1, &base);
-  int x = static_cast<int>(marker_px.x) + radius_px + 4;
-  int y = static_cast<int>(marker_px.y) - radius_px - 4;
-  if (x + size.width > img.cols) x = static_cast<int>(marker_px.x) - radius_px - 4 - size.width;
-  if (y - size.height < 0) y = static_cast<int>(marker_px.y) + radius_px + 4 + size.height;
+  const int gap_px = radius_px + 4;
+  int x = static_cast<int>(marker_px.x) + gap_px;
+  int y = static_cast<int>(marker_px.y) - gap_px;
+  if (x + size.width > img.cols) x = static_cast<int>(marker_px.x) - gap_px - size.width;
+  if (x < 0) {
+    x = std::clamp(static_cast<int>(marker_px.x) - size.width / 2, 0,
+                   std::max(0, img.cols - size.width));
+  }
+  if (y - size.height < 0) y = static_cast<int>(marker_px.y) + gap_px + size.height;
   // A white halo keeps the text readable over walls and paths.
   cv::putText(img, text, cv::Point(x, y), kFont, scale, cv::Scalar(255, 255, 255), 4, cv::LINE_AA);
   cv::putText(img, text, cv::Point(x, y), kFont, scale, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);

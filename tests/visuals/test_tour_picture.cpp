@@ -2,11 +2,13 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <memory>
 
 #include <mrpt/maps/COccupancyGridMap2D.h>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "projtour_executor/tour_picture.hpp"
 
@@ -145,6 +147,43 @@ TEST(TourPicture, LargeSiteKeepsTheLongSideWithin1600Px) {
   const cv::Mat img = render_tour_picture(in);
   EXPECT_LE(std::max(img.cols, img.rows - 200), 1600);
   EXPECT_GE(img.cols, 1500);
+}
+
+// Regression: in the demo's tall, narrow picture "open-day-sign (projected)" had room on
+// neither side of its marker and was drawn off the left edge ("day-sign (projected)").
+TEST(TourPicture, ALabelWiderThanEitherSideOfItsMarkerStaysInThePicture) {
+  TourPictureInput in = make_input();
+  in.start = {5.0, 1.0, kPi / 2};
+  in.targets = {{"open-day-sign", {5.2, 20.0, kPi}, "projected"}};
+  in.planned_paths = {straight(5.0, 1.0, 5.0, 20.0, 40)};
+  in.estimated_trajectory = in.planned_paths[0];
+  in.true_trajectory.clear();
+  const cv::Mat img = render_tour_picture(in);
+  int base = 0;
+  const int label_width_px =
+      cv::getTextSize("open-day-sign (projected)", cv::FONT_HERSHEY_SIMPLEX, 0.5, 1, &base).width;
+  ASSERT_LT(img.cols, 2 * label_width_px) << "the picture must be narrow for this test";
+  // The label sits above its marker, the topmost thing drawn: its black text is every dark
+  // pixel above the marker's green disc. Drawn whole, it spans about its text width.
+  int marker_top_row = 0;
+  while (marker_top_row < img.rows && find_colour(img.rowRange(marker_top_row, marker_top_row + 1),
+                                                  bgr(outcome_colour("projected")), 1)
+                                              .count == 0) {
+    ++marker_top_row;
+  }
+  ASSERT_LT(marker_top_row, img.rows / 2);
+  int left = img.cols, right = -1;
+  for (int r = 0; r + 2 < marker_top_row; ++r) {
+    for (int c = 0; c < img.cols; ++c) {
+      const cv::Vec3b p = img.at<cv::Vec3b>(r, c);
+      if (p[0] < 60 && p[1] < 60 && p[2] < 60) {
+        left = std::min(left, c);
+        right = std::max(right, c);
+      }
+    }
+  }
+  EXPECT_GE(right - left + 1, 0.9 * label_width_px)
+      << "label drawn from x " << left << " to " << right;
 }
 
 TEST(TourPicture, WritesAPng) {
