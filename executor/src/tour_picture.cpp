@@ -222,7 +222,10 @@ std::vector<Pose2D> simplify_polyline(const std::vector<Pose2D>& points, double 
     std::size_t worst = first;
     for (std::size_t i = first + 1; i < last; ++i) {
       const double d = distance_to_segment_m(points[i], points[first], points[last]);
-      if (d > worst_m) worst_m = d, worst = i;
+      if (d > worst_m) {
+        worst_m = d;
+        worst = i;
+      }
     }
     if (worst_m > tolerance_m) {
       keep[worst] = true;

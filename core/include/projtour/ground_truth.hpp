@@ -30,12 +30,12 @@ class GroundTruth {
   // the true target surface. nullopt if the target is unknown.
   virtual std::optional<ProjectionTruth> evaluate_projection(
       const std::string& target_id, const std::array<Eigen::Vector2d, 4>& projector_px) const = 0;
-  // Writes before.png and after.png into `dir`: a virtual camera in front of the target showing
-  // it shaded, the projected quadrilateral where it really lands and the true Model Points.
   // The target the tour is visiting now, from the executor. The world's faults are per target,
   // and targets on one object visited again (same model, same pose) are told apart by nothing
   // else; behaviours never call this.
   virtual void set_visited_target(const std::string& target_id) = 0;
+  // Writes before.png and after.png into `dir`: a virtual camera in front of the target showing
+  // it shaded, the projected quadrilateral where it really lands and the true Model Points.
   virtual void write_projection_views(const std::string& target_id,
                                       const std::array<Eigen::Vector2d, 4>& pixels_before_align,
                                       const std::array<Eigen::Vector2d, 4>& pixels_after_align,
