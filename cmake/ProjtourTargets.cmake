@@ -16,26 +16,67 @@ if(PROJTOUR_SANITIZE)
   add_link_options(-fsanitize=address,undefined)
 endif()
 
-# projtour_add_plugin(NAME SOURCES a.cpp ... [LIBS lib ...])
-# Builds a dlopen-able shared object into the common plugin directory.
+# projtour_add_library(COMPONENT SOURCES a.cpp ... [PUBLIC lib ...] [PRIVATE lib ...])
+# One of core's libraries: target projtour_COMPONENT (alias projtour::COMPONENT), headers in
+# the folder's include/, shared, into the build tree's lib/ (where the host looks for
+# lib/projtour/plugins, as in an installation), exported as its own find_package component.
+function(projtour_add_library component)
+  cmake_parse_arguments(L "" "" "SOURCES;PUBLIC;PRIVATE" ${ARGN})
+  set(target projtour_${component})
+  add_library(${target} SHARED ${L_SOURCES})
+  add_library(projtour::${component} ALIAS ${target})
+  target_include_directories(${target} PUBLIC
+    $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+  target_link_libraries(${target} PUBLIC ${L_PUBLIC} PRIVATE ${L_PRIVATE})
+  projtour_target_options(${target})
+  set_target_properties(${target} PROPERTIES
+    EXPORT_NAME ${component}
+    LIBRARY_OUTPUT_DIRECTORY ${PROJTOUR_LIBRARY_BUILD_DIR}
+    INSTALL_RPATH "$ORIGIN")
+  install(TARGETS ${target} EXPORT projtour-${component}-targets
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+  install(DIRECTORY include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+  install(EXPORT projtour-${component}-targets NAMESPACE projtour::
+    DESTINATION ${PROJTOUR_CMAKE_INSTALL_DIR})
+endfunction()
+
+# projtour_add_plugin(NAME SOURCES a.cpp ... [LIBS lib ...] [NO_INSTALL])
+# Builds a dlopen-able shared object into the common plugin directory. A plugin links the
+# contract and whichever of core's algorithm libraries it names in LIBS. NO_INSTALL: test
+# doubles, which an installation must not offer.
 function(projtour_add_plugin name)
-  cmake_parse_arguments(P "" "" "SOURCES;LIBS" ${ARGN})
+  cmake_parse_arguments(P "NO_INSTALL" "" "SOURCES;LIBS" ${ARGN})
   add_library(${name} MODULE ${P_SOURCES})
-  target_link_libraries(${name} PRIVATE projtour_core ${P_LIBS})
+  target_link_libraries(${name} PRIVATE projtour_contract ${P_LIBS})
   projtour_target_options(${name})
   set_target_properties(${name} PROPERTIES
     PREFIX "lib"
     LIBRARY_OUTPUT_DIRECTORY ${PROJTOUR_PLUGIN_BUILD_DIR}
+    # <libdir>/projtour/plugins -> <libdir>, where core's libraries are installed.
+    INSTALL_RPATH "$ORIGIN/../.."
     CXX_VISIBILITY_PRESET hidden
     VISIBILITY_INLINES_HIDDEN ON)
-  install(TARGETS ${name} LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/projtour/plugins)
+  if(NOT P_NO_INSTALL)
+    install(TARGETS ${name} LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/projtour/plugins)
+  endif()
 endfunction()
+
+# Tests and benchmarks may use any of core's libraries, and the libraries those wrap. A macro, so
+# OpenCV_LIBS is read where it is called (after find_package), not where this file is included.
+macro(projtour_all_libraries out)
+  set(${out} projtour_contract projtour_host projtour_head projtour_perception
+      projtour_navigation ${OpenCV_LIBS} mrpt::obs mrpt::poses)
+endmacro()
 
 # projtour_add_test(NAME SOURCES a.cpp ... [LIBS lib ...] [LABELS l] [TIMEOUT s])
 function(projtour_add_test name)
   cmake_parse_arguments(T "" "TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${name} ${T_SOURCES})
-  target_link_libraries(${name} PRIVATE projtour_core GTest::gtest GTest::gtest_main ${T_LIBS})
+  projtour_all_libraries(all_libraries)
+  target_link_libraries(${name} PRIVATE ${all_libraries} GTest::gtest GTest::gtest_main
+    ${T_LIBS})
   projtour_target_options(${name})
   if(NOT T_TIMEOUT)
     set(T_TIMEOUT 300)
@@ -63,7 +104,8 @@ endfunction()
 function(projtour_add_bench name)
   cmake_parse_arguments(B "" "" "SOURCES;LIBS" ${ARGN})
   add_executable(${name} ${B_SOURCES})
-  target_link_libraries(${name} PRIVATE projtour_core benchmark::benchmark ${B_LIBS})
+  projtour_all_libraries(all_libraries)
+  target_link_libraries(${name} PRIVATE ${all_libraries} benchmark::benchmark ${B_LIBS})
   projtour_target_options(${name})
   target_compile_definitions(${name} PRIVATE
     PROJTOUR_SOURCE_DIR="${PROJECT_SOURCE_DIR}"

@@ -4,6 +4,8 @@
 #include <functional>
 #include <set>
 
+#include "projtour/params_reader.hpp"
+
 namespace projtour {
 
 bool is_reserved_target(const std::string& name) {
@@ -192,7 +194,7 @@ class MachineReader {
     if (kind == nullptr) return;
     const YamlField params = field["params"];
     const std::size_t errors_before = diag_.error_count();
-    state.params = Params::from_yaml(kind->params, params);
+    state.params = read_params(kind->params, params);
     if (diag_.error_count() == errors_before) {
       const std::string why = catalog_.validate_params(state.behaviour, state.params);
       if (!why.empty()) params.error(why);

@@ -2,6 +2,7 @@
 
 #include "projtour/mission_loader.hpp"
 #include "projtour/occupancy_map.hpp"
+#include "projtour/params_reader.hpp"
 #include "projtour_executor/runner.hpp"
 
 namespace projtour {
@@ -46,7 +47,7 @@ std::optional<InstanceChoice> check_instance(const PluginRegistry& registry,
   YAML::Node wrapper;
   wrapper[spec.params_path] = spec.params;
   const Params params =
-      Params::from_yaml(kind->params, YamlField(wrapper, robot_file, local)[spec.params_path]);
+      read_params(kind->params, YamlField(wrapper, robot_file, local)[spec.params_path]);
   for (Diagnostic d : local.items()) {
     if (!spec.params.IsDefined() || spec.params.IsNull() || d.mark.line == 0 ||
         (d.mark.line == 1 && d.mark.column == 1 && spec.mark.line > 0)) {
@@ -64,6 +65,15 @@ std::optional<InstanceChoice> check_instance(const PluginRegistry& registry,
 }
 
 }  // namespace
+
+void report_map_problems(const LoadedMission& mission, const std::vector<MapProblem>& problems,
+                         Diagnostics& diag) {
+  for (const MapProblem& problem : problems) {
+    const bool written = mission.marks.count(problem.field_path) != 0;
+    diag.error(mission.mark_of(written ? problem.field_path : problem.fallback_path),
+               problem.field_path, problem.message);
+  }
+}
 
 std::unique_ptr<PreparedRun> prepare_run(const RunOptions& options, PrepareDepth depth,
                                          Diagnostics& diag) {
@@ -92,8 +102,7 @@ std::unique_ptr<PreparedRun> prepare_run(const RunOptions& options, PrepareDepth
   run->machine = load_machine(run->mission.machine, *run->catalog, diag);
   if (depth == PrepareDepth::machine) return diag.has_errors() ? nullptr : std::move(run);
 
-  const RobotSpec& robot = run->mission.robot;
-  const std::string robot_file = robot.file.string();
+  const std::string robot_file = run->mission.robot.file.string();
   if (options.dry_run) {
     // The simulated drivers take no parameters from files: they read robot and world from the
     // RunContext.
@@ -108,14 +117,14 @@ std::unique_ptr<PreparedRun> prepare_run(const RunOptions& options, PrepareDepth
       }
     }
   } else {
-    for (const auto& [interface, spec] : robot.drivers) {
+    for (const auto& [interface, spec] : run->mission.drivers) {
       if (auto c =
               check_instance(*run->registry, spec, Family::driver, interface, robot_file, diag)) {
         run->drivers[interface] = std::move(*c);
       }
     }
   }
-  for (const auto& [role, spec] : robot.services) {
+  for (const auto& [role, spec] : run->mission.services) {
     if (auto c = check_instance(*run->registry, spec, Family::service, role, robot_file, diag)) {
       run->services[role] = std::move(*c);
     }
@@ -126,7 +135,8 @@ std::unique_ptr<PreparedRun> prepare_run(const RunOptions& options, PrepareDepth
   } catch (const std::exception& e) {
     diag.error(run->mission.mark_of("map"), "map", e.what());
   }
-  if (run->map) validate_against_map(run->mission, *run->map, diag);
+  if (run->map)
+    report_map_problems(run->mission, check_mission_on_map(run->mission, *run->map), diag);
   return diag.has_errors() ? nullptr : std::move(run);
 }
 

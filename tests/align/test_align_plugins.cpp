@@ -10,6 +10,7 @@
 
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/kinematics.hpp"
+#include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
 #include "projtour/registration.hpp"
 #include "rendered_scenes.hpp"
@@ -63,7 +64,7 @@ PluginRegistry& registry() {
 }
 
 Params params_of(const std::string& kind, const std::map<std::string, ParamValue>& values = {}) {
-  Params p = Params::defaults(registry().require(kind).params);
+  Params p = default_params(registry().require(kind).params);
   for (const auto& [name, value] : values) p.set(name, value);
   return p;
 }

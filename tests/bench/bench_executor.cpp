@@ -3,6 +3,7 @@
 // machine takes to load and check, and how long loading the testing plugin takes.
 #include <benchmark/benchmark.h>
 
+#include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
 #include "projtour_executor/executor.hpp"
 #include "scripted_behaviour.hpp"
@@ -36,7 +37,7 @@ struct Tour {
         {"project", {"succeeded", "off_screen"}},
         {"next", {"succeeded", "finished"}}};
     for (const auto& [kind, outcomes] : kinds) {
-      Params p = Params::defaults(testing::scripted_param_specs());
+      Params p = default_params(testing::scripted_param_specs());
       if (scripts.count(kind)) p.set("outcomes", scripts.at(kind));
       catalog.add(kind, outcomes, {}, [p](const Params&, const RunContext& r) {
         return std::make_shared<testing::ScriptedBehaviour>(p, r);

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <sstream>
 
+#include "projtour/params_reader.hpp"
+
 namespace projtour::testing {
 
 namespace {
@@ -116,12 +118,12 @@ Harness::Harness(std::vector<std::string> target_ids) {
         from_machine ? InProcessCatalog::Validator(validate_script)
                      : InProcessCatalog::Validator());
   }
-  scripts_["__defaults"] = Params::defaults(scripted_param_specs());
+  scripts_["__defaults"] = default_params(scripted_param_specs());
 }
 
 void Harness::script(const std::string& kind, const std::string& outcomes, long long ticks,
                      long long throw_on, bool ignore_cancel) {
-  Params p = Params::defaults(scripted_param_specs());
+  Params p = default_params(scripted_param_specs());
   p.set("outcomes", outcomes);
   p.set("ticks", ticks);
   p.set("throw_on", throw_on);

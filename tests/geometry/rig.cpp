@@ -5,6 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "projtour/kinematics.hpp"
+#include "projtour/params_reader.hpp"
 
 namespace projtour::geometry_test {
 
@@ -124,7 +125,7 @@ void Rig::set_target(std::size_t index) {
 std::shared_ptr<Behaviour> Rig::make(const std::string& kind,
                                      const std::map<std::string, ParamValue>& overrides) {
   const KindInfo& info = registry.require(kind);
-  auto p = std::make_unique<Params>(Params::defaults(info.params));
+  auto p = std::make_unique<Params>(default_params(info.params));
   for (const auto& [name, value] : overrides) p->set(name, value);
   const std::string why = registry.validate_params(kind, *p);
   if (!why.empty()) throw std::invalid_argument(why);

@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "projtour/drivers.hpp"
+#include "projtour/params_reader.hpp"
 #include "rig.hpp"
 
 using namespace projtour;
@@ -17,7 +18,7 @@ namespace {
 std::shared_ptr<Driver> make_driver(Rig& rig, const std::string& kind,
                                     const std::map<std::string, ParamValue>& overrides = {}) {
   const KindInfo& info = rig.registry.require(kind);
-  auto p = std::make_unique<Params>(Params::defaults(info.params));
+  auto p = std::make_unique<Params>(default_params(info.params));
   for (const auto& [name, value] : overrides) p->set(name, value);
   auto d = rig.registry.create_driver(kind, *p, rig.run_ctx);
   rig.params_keep.push_back(std::move(p));
@@ -93,7 +94,7 @@ TEST(PtuDPerception, AbsentPortIsNamedInTheError) {
 TEST(PtuDPerception, SignsMustBeUnit) {
   Rig rig;
   const KindInfo& info = rig.registry.require("ptu_dperception");
-  Params p = Params::defaults(info.params);
+  Params p = default_params(info.params);
   p.set("tilt_sign", 2.0);
   EXPECT_NE(rig.registry.validate_params("ptu_dperception", p), "");
 }

@@ -9,6 +9,7 @@
 #include "projtour/localizer.hpp"
 #include "projtour/mission_loader.hpp"
 #include "projtour/occupancy_map.hpp"
+#include "projtour/params_reader.hpp"
 
 namespace projtour::nav_test {
 
@@ -133,7 +134,7 @@ Rig::~Rig() {
 }
 
 Params Rig::defaults(const std::string& kind) const {
-  return Params::defaults(registry_.require(kind).params);
+  return default_params(registry_.require(kind).params);
 }
 
 Context Rig::context(const Params* params, const TargetSpec* target) {

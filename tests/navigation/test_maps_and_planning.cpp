@@ -9,6 +9,7 @@
 #include "demo_map_crop.hpp"
 #include "projtour/occupancy_map.hpp"
 #include "projtour/path_planner.hpp"
+#include "projtour_executor/runner.hpp"
 #include "test_maps.hpp"
 
 namespace projtour {
@@ -123,8 +124,8 @@ TEST(StandoffPose, IsInFrontOfTheTargetFacingIt) {
 }
 
 // A mission on the corridor map with marks as the loader would record them.
-MissionSpec corridor_mission() {
-  MissionSpec m;
+LoadedMission corridor_mission() {
+  LoadedMission m;
   m.file = "m.yaml";
   m.robot.base.radius_m = 0.35;
   m.start = Pose2D{3.0, 2.0, 0.0};
@@ -151,7 +152,8 @@ MissionSpec corridor_mission() {
 TEST(ValidateAgainstMap, ReportsEachProblemAtItsField) {
   const auto map = load_occupancy_grid(nav_test::write_corridor_map(temp_dir("validate")));
   Diagnostics diag;
-  validate_against_map(corridor_mission(), *map, diag);
+  const LoadedMission mission = corridor_mission();
+  report_map_problems(mission, check_mission_on_map(mission, *map), diag);
   std::vector<std::string> lines;
   for (const auto& d : diag.items()) lines.push_back(d.format());
   const std::vector<std::string> expected = {
@@ -170,11 +172,11 @@ TEST(ValidateAgainstMap, ReportsEachProblemAtItsField) {
 
 TEST(ValidateAgainstMap, StartInAWall) {
   const auto map = load_occupancy_grid(nav_test::write_corridor_map(temp_dir("start")));
-  MissionSpec m = corridor_mission();
+  LoadedMission m = corridor_mission();
   m.targets.resize(1);
   m.start = Pose2D{3.0, 0.95, 0.0};
   Diagnostics diag;
-  validate_against_map(m, *map, diag);
+  report_map_problems(m, check_mission_on_map(m, *map), diag);
   ASSERT_EQ(diag.items().size(), 1u);
   EXPECT_EQ(diag.items()[0].format(),
             "m.yaml:3:8: start: start pose (3.00, 0.95) is in an occupied cell");

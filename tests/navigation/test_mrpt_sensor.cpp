@@ -4,6 +4,7 @@
 
 #include <fstream>
 
+#include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
 
 namespace projtour {
@@ -18,7 +19,7 @@ TEST(MrptSensor, AbsentSerialDeviceIsAnErrorNamingThePort) {
                         "sensorLabel = HOKUYO\nCOM_port_LIN = /dev/ttyProjtourAbsent0\n";
   PluginRegistry registry;
   registry.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_mrpt_sensor.so");
-  Params params = Params::defaults(registry.require("mrpt_sensor").params);
+  Params params = default_params(registry.require("mrpt_sensor").params);
   params.set("ini", ini.string());
   RunContext run;
   try {
@@ -39,7 +40,7 @@ TEST(MrptSensor, AbsentSerialDeviceIsAnErrorNamingThePort) {
 TEST(MrptSensor, UnknownDriverAndMissingIniAreErrors) {
   PluginRegistry registry;
   registry.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_mrpt_sensor.so");
-  Params params = Params::defaults(registry.require("mrpt_sensor").params);
+  Params params = default_params(registry.require("mrpt_sensor").params);
   params.set("ini", std::string("/nonexistent/laser.ini"));
   RunContext run;
   try {

@@ -4,6 +4,7 @@
 
 #include <atomic>
 
+#include "projtour/params_reader.hpp"
 #include "projtour/yaml_reader.hpp"
 
 namespace projtour::testing {
@@ -46,7 +47,7 @@ Params params_from_yaml(const std::vector<ParamSpec>& schema, const std::string&
                         Diagnostics& diag) {
   const auto node = load_yaml_string(yaml, "params.yaml", diag);
   if (!node) return Params();
-  return Params::from_yaml(schema, YamlField(*node, "params.yaml", diag));
+  return read_params(schema, YamlField(*node, "params.yaml", diag));
 }
 
 }  // namespace projtour::testing

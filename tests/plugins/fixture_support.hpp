@@ -6,6 +6,7 @@
 #include "projtour/blackboard.hpp"
 #include "projtour/clock.hpp"
 #include "projtour/context.hpp"
+#include "projtour/diagnostics.hpp"
 #include "projtour/logger.hpp"
 #include "projtour/params.hpp"
 

@@ -6,7 +6,8 @@ option(PROJTOUR_INSTALL_TEST_CLI
 
 # Not a discovered test: it only makes sense after the install step, which passes it the prefix.
 add_executable(test_template_plugin test_template_plugin.cpp fixture_support.cpp)
-target_link_libraries(test_template_plugin PRIVATE projtour_core GTest::gtest GTest::gtest_main)
+target_link_libraries(test_template_plugin PRIVATE projtour_contract projtour_host GTest::gtest
+  GTest::gtest_main)
 target_compile_definitions(test_template_plugin PRIVATE ${fixture_definitions})
 projtour_target_options(test_template_plugin)
 
@@ -20,5 +21,7 @@ add_test(NAME plugins_install_template
     -DCXX_COMPILER=${CMAKE_CXX_COMPILER}
     -DCHECK_PROGRAM=$<TARGET_FILE:test_template_plugin>
     -DCHECK_CLI=${PROJTOUR_INSTALL_TEST_CLI}
+    -DREADELF=${CMAKE_READELF}
+    -DCONTRACT_SOVERSION=${PROJTOUR_CONTRACT_SOVERSION}
     -P ${CMAKE_CURRENT_SOURCE_DIR}/install_check_run.cmake)
 set_tests_properties(plugins_install_template PROPERTIES LABELS install TIMEOUT 180)

@@ -1,3 +1,4 @@
+cmake_minimum_required(VERSION 3.16)
 # Run by ctest (plugins_install_template): cmake -P with BUILD_DIR, WORK_DIR, LIBDIR,
 # TEMPLATE_DIR, GENERATOR, CXX_COMPILER, CHECK_PROGRAM, CHECK_CLI.
 set(prefix ${WORK_DIR}/prefix)
@@ -13,18 +14,39 @@ function(run_step what)
 endfunction()
 
 run_step("installing the build" ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
-foreach(file bin/projtour ${LIBDIR}/libprojtour_core.so include/projtour/plugin_author.hpp
-             include/projtour/plugin_abi.h ${LIBDIR}/cmake/projtour/projtourConfig.cmake
-             ${LIBDIR}/cmake/projtour/projtourConfigVersion.cmake
-             ${LIBDIR}/cmake/projtour/projtourTargets.cmake)
+set(components contract host head perception navigation)
+set(expected bin/projtour include/projtour/plugin_author.hpp include/projtour/plugin_abi.h
+             include/projtour/contract_version.h
+             ${LIBDIR}/libprojtour_contract.so.${CONTRACT_SOVERSION}
+             ${LIBDIR}/cmake/projtour/projtourConfig.cmake
+             ${LIBDIR}/cmake/projtour/projtourConfigVersion.cmake)
+foreach(c ${components})
+  list(APPEND expected ${LIBDIR}/libprojtour_${c}.so ${LIBDIR}/cmake/projtour/projtour-${c}-targets.cmake)
+endforeach()
+foreach(file ${expected})
   if(NOT EXISTS ${prefix}/${file})
     message(FATAL_ERROR "not installed: ${prefix}/${file}")
   endif()
 endforeach()
-file(GLOB fixtures ${prefix}/${LIBDIR}/projtour/plugins/libpt_fixture_*)
+file(GLOB fixtures ${prefix}/${LIBDIR}/projtour/plugins/libpt_fixture_*
+                   ${prefix}/${LIBDIR}/projtour/plugins/libprojtour_testing.so)
 if(fixtures)
-  message(FATAL_ERROR "test fixtures were installed: ${fixtures}")
+  message(FATAL_ERROR "test doubles were installed: ${fixtures}")
 endif()
+# Nothing installed may point back into the tree it was built in: not its RUNPATH, not a
+# string the code uses (.rodata; debug information may name the tree, it is never read).
+file(GLOB_RECURSE installed_binaries ${prefix}/bin/* ${prefix}/${LIBDIR}/*.so*)
+foreach(binary ${installed_binaries})
+  if(IS_SYMLINK ${binary})
+    continue()
+  endif()
+  execute_process(COMMAND ${READELF} -d -p .rodata ${binary} OUTPUT_VARIABLE sections
+                  ERROR_QUIET)
+  string(FIND "${sections}" "${BUILD_DIR}" at)
+  if(NOT at EQUAL -1)
+    message(FATAL_ERROR "${binary} names the build tree ${BUILD_DIR}")
+  endif()
+endforeach()
 
 # The installed command runs from its prefix: its RPATH finds the installed core.
 execute_process(COMMAND ${prefix}/bin/projtour RESULT_VARIABLE rc ERROR_VARIABLE err
@@ -42,6 +64,25 @@ set(plugin ${prefix}/${LIBDIR}/projtour/plugins/libprojtour_hello.so)
 if(NOT EXISTS ${plugin})
   message(FATAL_ERROR "the template did not install ${plugin}")
 endif()
+
+# A driver or behaviour plugin built against the installed package links the contract and
+# nothing of MRPT, PCL, OpenCV, yaml-cpp or the host.
+run_step("reading the template's NEEDED list" ${READELF} -d ${plugin})
+string(REGEX MATCHALL "\\(NEEDED\\)[^\n]*\\[([^]]*)\\]" needed_lines "${step_output}")
+set(needed "")
+foreach(line ${needed_lines})
+  string(REGEX REPLACE ".*\\[([^]]*)\\]" "\\1" lib "${line}")
+  list(APPEND needed ${lib})
+endforeach()
+if(NOT "libprojtour_contract.so.${CONTRACT_SOVERSION}" IN_LIST needed)
+  message(FATAL_ERROR "the template does not link libprojtour_contract.so.${CONTRACT_SOVERSION}: ${needed}")
+endif()
+foreach(lib ${needed})
+  if(lib MATCHES "mrpt|pcl|opencv|yaml|vtk|boost|projtour_(host|head|perception|navigation)")
+    message(FATAL_ERROR "the template plugin links ${lib} (NEEDED: ${needed})")
+  endif()
+endforeach()
+message(STATUS "template plugin NEEDED: ${needed}")
 
 # The check program loads the installed core first (LD_LIBRARY_PATH before its RUNPATH), so
 # the search path it sees is the installed core's.

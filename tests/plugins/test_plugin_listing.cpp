@@ -91,7 +91,8 @@ TEST(PluginListing, CommandReportsSearchPathAndFailures) {
       << out.str();
   EXPECT_NE(out.str().find("\nfixture_wait (behaviour)\n"), std::string::npos);
   EXPECT_NE(err.str().find("projtour: plugins: " + fixture("pt_fixture_abi999").string() +
-                           ": ABI version 999, this projtour needs 1\n"),
+                           ": ABI version 999, this projtour needs " +
+                           std::to_string(PROJTOUR_ABI_VERSION) + "\n"),
             std::string::npos)
       << err.str();
 }

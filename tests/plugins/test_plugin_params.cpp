@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "fixture_support.hpp"
+#include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
 
 namespace {
@@ -56,8 +57,8 @@ TEST_F(KindParams, RequiredParameterWithoutDefaultMustBeGiven) {
 }
 
 TEST_F(KindParams, DefaultsAloneNeedEveryRequiredValue) {
-  EXPECT_THROW(projtour::Params::defaults(schema()), std::invalid_argument);
-  const auto params = projtour::Params::defaults(registry_.require("fixture_projector").params);
+  EXPECT_THROW(projtour::default_params(schema()), std::invalid_argument);
+  const auto params = projtour::default_params(registry_.require("fixture_projector").params);
   EXPECT_EQ(params.integer("width_px"), 1024);
   EXPECT_EQ(params.integer("height_px"), 768);
 }

@@ -7,7 +7,9 @@
 
 #include "projtour/kinematics.hpp"
 #include "projtour/model.hpp"
+#include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
+#include "projtour/world.hpp"
 #include "sim_world_rig.hpp"
 
 namespace projtour::sim {
@@ -496,7 +498,7 @@ TEST(SimPlugin, ProvidesFiveDriversSharingOneWorld) {
        {"sim_base", "sim_laser", "sim_pan_tilt", "sim_depth_camera", "sim_projector"}) {
     const KindInfo& info = registry.require(kind);
     EXPECT_EQ(info.family, Family::driver);
-    drivers.push_back(registry.create_driver(kind, Params::defaults(info.params), rig.run));
+    drivers.push_back(registry.create_driver(kind, default_params(info.params), rig.run));
     ASSERT_TRUE(drivers.back());
   }
   GroundTruth* truth = drivers[0]->ground_truth();

@@ -20,6 +20,7 @@
 #include "projtour/mission_loader.hpp"
 #include "projtour/model.hpp"
 #include "projtour/occupancy_map.hpp"
+#include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
 #include "projtour/projection.hpp"
 
@@ -152,7 +153,7 @@ class DryRun {
 
   std::shared_ptr<Behaviour> make(const std::string& kind,
                                   const std::map<std::string, ParamValue>& values = {}) {
-    auto params = std::make_unique<Params>(Params::defaults(registry.require(kind).params));
+    auto params = std::make_unique<Params>(default_params(registry.require(kind).params));
     for (const auto& [name, value] : values) params->set(name, value);
     EXPECT_EQ(registry.validate_params(kind, *params), "");
     auto b = registry.create_behaviour(kind, *params, run);
@@ -244,7 +245,7 @@ class DryRun {
   template <typename D>
   std::shared_ptr<D> driver(const std::string& kind,
                             const std::map<std::string, ParamValue>& values = {}) {
-    Params params = Params::defaults(registry.require(kind).params);
+    Params params = default_params(registry.require(kind).params);
     for (const auto& [name, value] : values) params.set(name, value);
     auto d = std::dynamic_pointer_cast<D>(registry.create_driver(kind, params, run));
     if (!d) throw std::runtime_error(kind + " is not the driver expected");
@@ -384,7 +385,7 @@ TEST(Track, ParametersAreCheckedAtLoad) {
   PluginRegistry registry;
   registry.load_library(fs::path(PROJTOUR_PLUGIN_BUILD_DIR) / "libprojtour_project.so");
   const auto with = [&](const std::string& name, ParamValue value) {
-    Params p = Params::defaults(registry.require("project").params);
+    Params p = default_params(registry.require("project").params);
     p.set("track", true);
     p.set(name, value);
     return registry.validate_params("project", p);

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "projtour/diagnostics.hpp"
-#include "projtour/mission.hpp"
+#include "projtour/mission_loader.hpp"
 #include "projtour/params.hpp"
 #include "projtour/yaml_reader.hpp"
 #include "projtour_executor/catalog.hpp"

@@ -12,7 +12,8 @@
 #include <vector>
 
 #include "projtour/diagnostics.hpp"
-#include "projtour/mission.hpp"
+#include "projtour/mission_loader.hpp"
+#include "projtour/occupancy_map.hpp"
 #include "projtour/plugin_loader.hpp"
 #include "projtour_executor/catalog.hpp"
 #include "projtour_executor/machine.hpp"
@@ -47,7 +48,7 @@ struct InstanceChoice {
 
 // Everything checked before anything moves.
 struct PreparedRun {
-  MissionSpec mission;
+  LoadedMission mission;
   std::optional<WorldSpec> world;
   std::unique_ptr<PluginRegistry> registry;
   std::unique_ptr<RegistryCatalog> catalog;
@@ -62,6 +63,11 @@ enum class PrepareDepth { machine, everything };
 
 // nullptr when any error was recorded in `diag`. `depth` machine stops after the machine
 // (graph); everything adds drivers, services and the map.
+// Each way the mission does not fit its map, as a diagnostic at the line of the field it
+// concerns (or of the field it falls back on when that one was not written).
+void report_map_problems(const LoadedMission& mission, const std::vector<MapProblem>& problems,
+                         Diagnostics& diag);
+
 std::unique_ptr<PreparedRun> prepare_run(const RunOptions& options, PrepareDepth depth,
                                          Diagnostics& diag);
 

@@ -34,6 +34,7 @@
 #include "projtour/drivers.hpp"
 #include "projtour/ground_truth.hpp"
 #include "projtour/model.hpp"
+#include "projtour/world.hpp"
 
 namespace cv {
 class Mat;

@@ -1,0 +1,78 @@
+#pragma once
+// The robot file as plugins see it: kinematic chain and sensors. Which driver and service kinds
+// run them is the host's (LoadedRobot).
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "projtour/pinhole.hpp"
+
+namespace projtour {
+
+enum class Link { pan, tilt };
+
+struct MountSpec {
+  Link link = Link::pan;
+  // Device body frame (x along the optical axis, y left, z up) on its link.
+  Eigen::Isometry3d T_link_body = Eigen::Isometry3d::Identity();
+};
+
+struct BaseSpec {
+  double radius_m = 0.35;
+  double max_speed_mps = 0.5;
+  double max_turn_rate_dps = 60.0;
+};
+
+struct LaserSpec {
+  Eigen::Isometry3d T_base_laser = Eigen::Isometry3d::Identity();
+  double fov_deg = 270.0;
+  int rays = 541;
+  double max_range_m = 20.0;
+  double range_noise_m = 0.01;
+  double rate_hz = 10.0;
+};
+
+struct PanTiltSpec {
+  // Pan joint frame on the base: pan rotates about its z axis.
+  Eigen::Isometry3d T_base_pan0 = Eigen::Isometry3d::Identity();
+  // Tilt joint frame on the pan link: tilt rotates about its y axis (positive = nose down,
+  // as a right-handed rotation about y; the sign is documented in the robot file).
+  Eigen::Isometry3d T_pan_tilt0 = Eigen::Isometry3d::Identity();
+  double pan_min_deg = -170, pan_max_deg = 170;
+  double tilt_min_deg = -30, tilt_max_deg = 60;
+  double max_rate_dps = 60.0;
+  double encoder_noise_deg = 0.02;
+  double stow_pan_deg = 0.0, stow_tilt_deg = 0.0;
+  double tolerance_deg = 0.2;  // "reached" when within this of the command
+};
+
+struct CameraSpec {
+  MountSpec mount;
+  PinholeModel intrinsics;
+  // Offset from the depth optical frame to the colour optical frame (the paper's eq. 2: 5 cm
+  // along x), applied when building the cloud; zero when depth is registered to colour.
+  Eigen::Vector3d depth_to_color_m = Eigen::Vector3d::Zero();
+  double min_range_m = 0.4;
+  double max_range_m = 4.0;
+  double rate_hz = 30.0;
+};
+
+struct ProjectorSpec {
+  MountSpec mount;
+  PinholeModel intrinsics;
+};
+
+struct RobotSpec {
+  std::string name;
+  std::filesystem::path file;
+  BaseSpec base;
+  LaserSpec laser;
+  PanTiltSpec pan_tilt;
+  CameraSpec camera;
+  ProjectorSpec projector;
+};
+
+}  // namespace projtour

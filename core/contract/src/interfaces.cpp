@@ -1,0 +1,77 @@
+// Out-of-line anchors for core's interfaces: their vtables and typeinfo live in the core
+// library only, so dynamic_cast works across plugin boundaries.
+#include <algorithm>
+#include <iostream>
+#include <numeric>
+
+#include "projtour/behaviour.hpp"
+#include "projtour/blackboard.hpp"
+#include "projtour/clock.hpp"
+#include "projtour/depth_frame.hpp"
+#include "projtour/drivers.hpp"
+#include "projtour/ground_truth.hpp"
+#include "projtour/logger.hpp"
+#include "projtour/mission.hpp"
+
+namespace projtour {
+
+Clock::~Clock() = default;
+Logger::~Logger() = default;
+Driver::~Driver() = default;
+void Driver::update(double) {}
+GroundTruth* Driver::ground_truth() {
+  return nullptr;
+}
+GroundTruth::~GroundTruth() = default;
+Behaviour::~Behaviour() = default;
+void Behaviour::stop(Context&) {}
+void Behaviour::pause(Context&) {}
+void Behaviour::resume(Context&) {}
+Service::~Service() = default;
+void Service::stop(Context&) {}
+
+void StderrLogger::log(LogLevel level, const std::string& message) {
+  if (level < threshold_) return;
+  static const char* const kNames[] = {"debug", "info", "warning", "error"};
+  std::cerr << "projtour: " << kNames[static_cast<int>(level)] << ": " << message << "\n";
+}
+
+void Blackboard::erase_prefix(const std::string& prefix) {
+  for (auto it = values_.begin(); it != values_.end();) {
+    if (it->first.compare(0, prefix.size(), prefix) == 0) {
+      it = values_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+
+std::size_t DepthFrame::valid_count() const {
+  return static_cast<std::size_t>(
+      std::count_if(depth_mm.begin(), depth_mm.end(), [](std::uint16_t d) { return d != 0; }));
+}
+
+std::vector<std::shared_ptr<Driver>> DriverSet::all() const {
+  std::vector<std::shared_ptr<Driver>> out;
+  for (std::shared_ptr<Driver> d : std::initializer_list<std::shared_ptr<Driver>>{
+           base, laser, pan_tilt, depth_camera, projector}) {
+    if (d) out.push_back(std::move(d));
+  }
+  return out;
+}
+
+GroundTruth* DriverSet::ground_truth() const {
+  for (const auto& d : all()) {
+    if (GroundTruth* truth = d->ground_truth()) return truth;
+  }
+  return nullptr;
+}
+
+double ProjectionTruth::mean_mm() const {
+  return std::accumulate(error_mm.begin(), error_mm.end(), 0.0) / 4.0;
+}
+double ProjectionTruth::mean_px() const {
+  return std::accumulate(error_px.begin(), error_px.end(), 0.0) / 4.0;
+}
+
+}  // namespace projtour

@@ -1,0 +1,71 @@
+#pragma once
+// Reading mission, robot and world files. All problems in a file are collected, not only the
+// first; relative paths resolve against the file that names them; files named (models, maps,
+// content) must exist and be readable.
+#include <filesystem>
+#include <optional>
+
+#include <yaml-cpp/yaml.h>
+
+#include <map>
+#include <string>
+
+#include "projtour/diagnostics.hpp"
+#include "projtour/mission.hpp"
+#include "projtour/world.hpp"
+
+namespace projtour {
+
+// A kind to instantiate with its (not yet schema-checked) parameters, and where it was written.
+struct PluginInstanceSpec {
+  std::string kind;
+  YAML::Node params;  // mapping or undefined; checked against the kind's schema by the executor
+  std::string params_path;  // field path of params, for diagnostics ("drivers.base.params")
+  SourceMark mark;
+};
+
+// The robot file: the view plugins get (RobotSpec) and the kinds that run it.
+struct LoadedRobot : RobotSpec {
+  // Hardware drivers by interface: "base", "laser", "pan_tilt", "depth_camera", "projector".
+  std::map<std::string, PluginInstanceSpec> drivers;
+  // Tour-long services by role, e.g. "localization".
+  std::map<std::string, PluginInstanceSpec> services;
+};
+
+// Where the state machine comes from: the built-in default, or YAML (inline or a file).
+struct MachineSource {
+  bool is_default = true;
+  YAML::Node node;   // the machine mapping when not default
+  std::string file;  // the file the node came from
+  std::string path;  // its field path ("machine" inline, "" when a file of its own)
+};
+
+// The mission file: the view plugins get (MissionSpec, robot included) and what only the host
+// uses. Plugins are handed the MissionSpec base, so none of this reaches them.
+struct LoadedMission : MissionSpec {
+  MachineSource machine;
+  // The robot file's driver and service choices (LoadedRobot's).
+  std::map<std::string, PluginInstanceSpec> drivers;
+  std::map<std::string, PluginInstanceSpec> services;
+  // Where each field was written, by field path ("start", "targets[2].pose", ...), so checks
+  // made after loading (map, reachability, plugins) can point at the line.
+  std::map<std::string, SourceMark> marks;
+
+  // The field's mark, or the file as a whole when it was not written.
+  SourceMark mark_of(const std::string& field_path) const;
+};
+
+// nullopt when any error was recorded.
+std::optional<LoadedMission> load_mission(const std::filesystem::path& file, Diagnostics& diag);
+std::optional<LoadedRobot> load_robot(const std::filesystem::path& file, Diagnostics& diag);
+std::optional<WorldSpec> load_world(const std::filesystem::path& file, const MissionSpec& mission,
+                                    Diagnostics& diag);
+// From text (the fuzzer and tests): `file_name` only labels diagnostics and anchors paths.
+std::optional<LoadedMission> load_mission_from_string(const std::string& text,
+                                                      const std::filesystem::path& file_name,
+                                                      Diagnostics& diag);
+
+// Throwing forms: InputError carrying every diagnostic.
+LoadedMission load_mission_or_throw(const std::filesystem::path& file);
+
+}  // namespace projtour

@@ -1,0 +1,91 @@
+#pragma once
+// Loading plugin shared objects (dlopen, RTLD_NOW | RTLD_LOCAL) and making objects of their
+// kinds. A library stays loaded while any object made from it lives.
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "projtour/behaviour.hpp"
+#include "projtour/drivers.hpp"
+#include "projtour/params.hpp"
+#include "projtour/plugin_abi.h"
+
+namespace projtour {
+
+// Anything wrong with a plugin; the message names the file (and the kind where there is one).
+class PluginError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class PluginLibrary;  // an open dlopen handle
+
+enum class Family { behaviour, driver, service };
+const char* to_string(Family family);
+
+struct KindInfo {
+  std::string name;
+  Family family = Family::behaviour;
+  std::string interface;  // drivers: "base", ...; services: role; behaviours: ""
+  std::string description;
+  std::vector<ParamSpec> params;
+  std::vector<std::string> outcomes;  // declared; "failed" and "cancelled" are implicit
+  std::string plugin_name;
+  std::string plugin_version;
+  std::filesystem::path library;
+  const projtour_kind_desc* desc = nullptr;
+  std::shared_ptr<PluginLibrary> handle;
+
+  bool declares_outcome(const std::string& outcome) const;
+};
+
+class PluginRegistry {
+ public:
+  PluginRegistry();
+  ~PluginRegistry();
+  PluginRegistry(const PluginRegistry&) = delete;
+  PluginRegistry& operator=(const PluginRegistry&) = delete;
+
+  // The search path: each --plugin-path, then each entry of PROJTOUR_PLUGIN_PATH (':'-separated),
+  // then <the directory of this library>/projtour/plugins (the same layout in a build tree and
+  // an installation, so nothing is compiled in). Never the current directory unless named;
+  // empty entries are skipped.
+  static std::vector<std::filesystem::path> search_path(
+      const std::vector<std::filesystem::path>& cli_paths);
+
+  // Loads one shared object. Throws PluginError: file missing, not loadable (dlerror), no entry
+  // point (not a plugin), ABI version mismatch, a malformed descriptor, or a kind another
+  // plugin already provides (naming both files).
+  void load_library(const std::filesystem::path& file);
+  // Loads every lib*.so in each directory (missing directories are skipped). Files that fail
+  // are returned as messages rather than thrown, so one bad file does not hide the rest. Like
+  // PATH, a file name found in an earlier directory shadows the same name in later ones (a
+  // build tree and an installed copy of one plugin do not collide).
+  std::vector<std::string> load_directories(const std::vector<std::filesystem::path>& dirs);
+
+  const KindInfo* find(const std::string& kind) const;
+  // Throws PluginError with "did you mean" when unknown.
+  const KindInfo& require(const std::string& kind) const;
+  std::vector<const KindInfo*> kinds() const;  // sorted by name
+
+  // Each throws PluginError naming the kind and library when create fails (or throws inside),
+  // or when the kind is of another family/interface.
+  std::shared_ptr<Behaviour> create_behaviour(const std::string& kind, const Params& params,
+                                              const RunContext& run) const;
+  std::shared_ptr<Driver> create_driver(const std::string& kind, const Params& params,
+                                        const RunContext& run) const;
+  std::shared_ptr<Service> create_service(const std::string& kind, const Params& params,
+                                          const RunContext& run) const;
+
+  // Runs the kind's optional validate(); returns "" when fine, else the message.
+  std::string validate_params(const std::string& kind, const Params& params) const;
+
+ private:
+  std::map<std::string, KindInfo> kinds_;
+  std::map<std::string, std::shared_ptr<PluginLibrary>> libraries_;  // by canonical path
+};
+
+}  // namespace projtour
