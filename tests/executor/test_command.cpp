@@ -203,6 +203,61 @@ TEST_F(Command, UsageErrorsExitTwo) {
   EXPECT_EQ(projtour("fly"), 2);
 }
 
+// Numbers are read whole and in range, and single-valued options given once: each mistake is
+// exit 2 with the option named, before anything runs.
+TEST_F(Command, BadNumbersAndRepeatedOptionsExitTwoNamingTheOption) {
+  const std::string run =
+      "run " + kSource + "/missions/scripted_tour.yaml --out " + (dir_ / "run").string() + " ";
+  const std::pair<const char*, const char*> cases[] = {
+      {"--seed 5abc", "--seed"},
+      {"--seed 1.5", "--seed"},
+      {"--seed -1", "--seed"},
+      {"--seed 18446744073709551616", "--seed"},
+      {"--seed 0x10", "--seed"},
+      {"--seed ' 5'", "--seed"},
+      {"--speed 1x", "--speed"},
+      {"--speed nan", "--speed"},
+      {"--speed inf", "--speed"},
+      {"--speed 1e999", "--speed"},
+      {"--speed -1", "--speed"},
+      {"--watchdog-s nan", "--watchdog-s"},
+      {"--watchdog-s -inf", "--watchdog-s"},
+      {"--watchdog-s 0", "--watchdog-s"},
+      {"--seed 1 --seed 2", "--seed"},
+      {"--out b", "--out"},  // the second --out
+      {"--speed 1 --speed 1", "--speed"},
+      {"--dry-run --dry-run", "--dry-run"},
+      {"--world a.yaml --world b.yaml", "--world"},
+      {"--seed", "--seed"},
+  };
+  for (const auto& [args, option] : cases) {
+    EXPECT_EQ(projtour(run + args), 2) << args << ": " << err();
+    EXPECT_NE(err().find(std::string("projtour: ") + option + ": "), std::string::npos)
+        << args << ": " << err();
+    EXPECT_NE(err().find("usage:"), std::string::npos) << args;
+    EXPECT_FALSE(fs::exists(dir_ / "run")) << args;
+  }
+  EXPECT_EQ(projtour("validate " + kSource + "/missions/scripted_tour.yaml --seed 1"), 2);
+  EXPECT_NE(err().find("unknown option --seed for validate"), std::string::npos) << err();
+  EXPECT_EQ(projtour("plugins extra"), 2);
+  EXPECT_NE(err().find("unexpected argument extra"), std::string::npos) << err();
+}
+
+// --plugin-path may repeat (the fixture adds one more), and the largest seed is a seed.
+TEST_F(Command, PluginPathRepeatsAndTheLargestSeedIsWrittenUnsigned) {
+  ASSERT_EQ(projtour("plugins --plugin-path " + kPluginPath), 0) << err();
+  const fs::path run = dir_ / "run";
+  ASSERT_EQ(
+      projtour("run " + kSource + "/missions/scripted_tour.yaml --seed 18446744073709551615 " +
+               "--speed 0 --out " + run.string()),
+      0)
+      << err();
+  EXPECT_NE(read_text(run / "report.json").find("\"seed\": 18446744073709551615,"),
+            std::string::npos);
+  EXPECT_EQ(read_json_file(run / "checkpoint.json").at("seed").get<std::uint64_t>(),
+            18446744073709551615u);
+}
+
 TEST_F(Command, GraphPrintsDotWithClusters) {
   ASSERT_EQ(projtour("graph " + kSource + "/missions/scripted_tour.yaml"), 0) << err();
   const std::string dot = out();
