@@ -18,51 +18,17 @@ const char* to_string(EventType type) {
   return "?";
 }
 
-Json ExecutorEvent::to_json() const {
-  Json j = Json::object();
-  j.set("t", t_s);
-  j.set("event", to_string(type));
-  j.set("state", state);
-  j.set("target", target ? Json(*target) : Json());
-  if (type == EventType::outcome || type == EventType::transition) j.set("outcome", outcome);
-  if (type == EventType::outcome && !message.empty()) j.set("message", message);
-  if (type == EventType::transition) j.set("to", to);
-  return j;
-}
-
-Json TargetRecord::to_json() const {
-  Json j = Json::object();
-  j.set("id", id);
-  j.set("outcome", outcome);
-  if (!reason.empty()) j.set("reason", reason);
-  j.set("retries", retries);
-  // DESIGN.md's order, whatever order the states exited in.
-  static const char* const kOrder[] = {"projected_s",         "align",
-                                       "localization_error",  "target_pose_error",
-                                       "projection_error_mm", "projection_error_px"};
-  for (const char* key : kOrder) {
-    if (const Json* v = measurements.find(key)) j.set(key, *v);
-  }
-  for (const auto& kv : measurements.as_object()) {
-    if (j.find(kv.first) == nullptr) j.set(kv.first, kv.second);
-  }
-  return j;
-}
-
-TargetRecord TargetRecord::from_json(const Json& json, std::size_t index) {
-  TargetRecord r;
-  r.index = index;
-  r.id = json.at("id").as_string();
-  r.outcome = json.at("outcome").as_string();
-  if (const Json* reason = json.find("reason")) r.reason = reason->as_string();
-  r.retries = static_cast<int>(json.at("retries").as_int());
-  for (const auto& kv : json.as_object()) {
-    if (kv.first != "id" && kv.first != "outcome" && kv.first != "reason" &&
-        kv.first != "retries") {
-      r.measurements.set(kv.first, kv.second);
-    }
-  }
-  return r;
+void to_json(Json& j, const ExecutorEvent& event) {
+  j = Json::object();
+  j["t"] = event.t_s;
+  j["event"] = to_string(event.type);
+  j["state"] = event.state;
+  j["target"] = event.target ? Json(*event.target) : Json();
+  const bool outcome = event.type == EventType::outcome;
+  const bool transition = event.type == EventType::transition;
+  if (outcome || transition) j["outcome"] = event.outcome;
+  if (outcome && !event.message.empty()) j["message"] = event.message;
+  if (transition) j["to"] = event.to;
 }
 
 ExecutorObserver::~ExecutorObserver() = default;
@@ -73,7 +39,7 @@ JsonlEventWriter::JsonlEventWriter(const std::filesystem::path& file, bool appen
 }
 
 void JsonlEventWriter::on_event(const ExecutorEvent& event) {
-  out_ << event.to_json().dump() << '\n';
+  out_ << dump_json(Json(event)) << '\n';
   out_.flush();
 }
 

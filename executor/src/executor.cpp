@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "projtour/blackboard_keys.hpp"
+#include "projtour_executor/json_io.hpp"
 #include "projtour_executor/measurements.hpp"
 
 namespace projtour {
@@ -520,7 +521,8 @@ bool Executor::step() {
   const StateSpec* leaf = active_.back();
   if (!outcome && !driver_failure_.empty()) outcome = Outcome{kOutcomeFailed, driver_failure_};
   if (!outcome && leaf->timeout_s > 0 && leaf_elapsed_s_ >= leaf->timeout_s - 1e-9) {
-    outcome = Outcome{kOutcomeTimeout, "no outcome within " + Json(leaf->timeout_s).dump() + " s"};
+    outcome =
+        Outcome{kOutcomeTimeout, "no outcome within " + json_number_text(leaf->timeout_s) + " s"};
   }
   if (outcome) {
     if (outcome->name == kOutcomeCancelled) {

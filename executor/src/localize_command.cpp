@@ -11,6 +11,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
@@ -20,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_options.hpp"
 #include "projtour/localizer.hpp"
 #include "projtour/occupancy_map.hpp"
 
@@ -35,7 +37,7 @@ struct Arguments {
   std::string map, rawlog, out;
   Pose2D init;
   int particles = LocalizerOptions{}.particles;
-  unsigned long long seed = 1;
+  std::uint64_t seed = 1;
 };
 
 bool parse_init(const std::string& text, Pose2D& out) {
@@ -43,55 +45,51 @@ bool parse_init(const std::string& text, Pose2D& out) {
   std::stringstream stream(text);
   std::string item;
   while (std::getline(stream, item, ',')) {
-    try {
-      std::size_t used = 0;
-      values.push_back(std::stod(item, &used));
-      if (used != item.size()) return false;
-    } catch (const std::exception&) {
-      return false;
-    }
+    double v = 0.0;
+    if (!cli::parse_whole(item, v) || !std::isfinite(v)) return false;
+    values.push_back(v);
   }
-  if (values.size() != 3) return false;
+  if (values.size() != 3 || text.back() == ',') return false;
   out = Pose2D{values[0], values[1], deg_to_rad(values[2])};
   return true;
 }
 
 std::optional<Arguments> parse(int argc, char** argv) {
   Arguments args;
+  CLI::App app("projtour localize", "projtour localize");
+  app.set_help_flag();
+  app.allow_extras();
+  app.add_option_function<std::string>("--map", [&](const std::string& v) { args.map = v; });
+  app.add_option_function<std::string>("--rawlog", [&](const std::string& v) { args.rawlog = v; });
+  app.add_option_function<std::string>("--out", [&](const std::string& v) { args.out = v; });
   bool have_init = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string flag = argv[i];
-    if (i + 1 >= argc) {
-      std::cerr << "projtour localize: " << flag << " needs a value\n" << kUsage;
-      return std::nullopt;
+  app.add_option_function<std::string>("--init", [&](const std::string& v) {
+    if (!parse_init(v, args.init)) {
+      throw CLI::ValidationError("--init", "expects X,Y,YAW_DEG, got \"" + v + "\"");
     }
-    const std::string value = argv[++i];
-    try {
-      if (flag == "--map") {
-        args.map = value;
-      } else if (flag == "--rawlog") {
-        args.rawlog = value;
-      } else if (flag == "--out") {
-        args.out = value;
-      } else if (flag == "--init") {
-        if (!parse_init(value, args.init)) {
-          std::cerr << "projtour localize: --init expects X,Y,YAW_DEG, got \"" << value << "\"\n";
-          return std::nullopt;
-        }
-        have_init = true;
-      } else if (flag == "--particles") {
-        args.particles = std::stoi(value);
-        if (args.particles < 1) throw std::invalid_argument("not positive");
-      } else if (flag == "--seed") {
-        args.seed = std::stoull(value);
-      } else {
-        std::cerr << "projtour localize: unknown option " << flag << "\n" << kUsage;
-        return std::nullopt;
-      }
-    } catch (const std::exception&) {
-      std::cerr << "projtour localize: " << flag << ": invalid value \"" << value << "\"\n";
-      return std::nullopt;
-    }
+    have_init = true;
+  });
+  cli::add_int(
+      app, "--particles",
+      [&](int n) {
+        if (n < 1) throw CLI::ValidationError("--particles", "must be >= 1");
+        args.particles = n;
+      },
+      "N");
+  cli::add_uint64(
+      app, "--seed", [&](std::uint64_t s) { args.seed = s; }, "S");
+  for (CLI::Option* option : app.get_options()) {
+    option->multi_option_policy(CLI::MultiOptionPolicy::Throw);
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "projtour localize: " << e.what() << "\n" << kUsage;
+    return std::nullopt;
+  }
+  if (!app.remaining().empty()) {
+    std::cerr << "projtour localize: unknown option " << app.remaining().front() << "\n" << kUsage;
+    return std::nullopt;
   }
   if (args.map.empty() || args.rawlog.empty() || !have_init) {
     std::cerr << "projtour localize: --map, --rawlog and --init are required\n" << kUsage;

@@ -1,9 +1,11 @@
 // The projtour command: run | validate | graph | plugins | localize.
+#include <CLI/CLI.hpp>
 #include <cstdlib>
 #include <iostream>
 #include <string>
 #include <vector>
 
+#include "cli_options.hpp"
 #include "projtour_executor/plugin_listing.hpp"
 #include "projtour_executor/runner.hpp"
 
@@ -29,64 +31,73 @@ struct UsageError {
   std::string message;
 };
 
-// Parses the options every mission subcommand shares; `allowed` lists the ones this
-// subcommand takes.
-projtour::RunOptions parse_options(int argc, char** argv, const std::vector<std::string>& allowed,
-                                   std::vector<std::filesystem::path>* plugin_paths_only) {
-  projtour::RunOptions options;
-  bool have_mission = false;
-  auto allowed_here = [&](const std::string& flag) {
-    for (const auto& a : allowed) {
-      if (a == flag) return true;
-    }
-    return false;
-  };
-  for (int i = 2; i < argc; ++i) {
-    const std::string arg = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw UsageError{arg + " needs a value"};
-      return argv[++i];
-    };
-    if (arg.rfind("--", 0) == 0 && !allowed_here(arg)) {
-      throw UsageError{"unknown option " + arg + " for " + argv[1]};
-    }
-    try {
-      if (arg == "--dry-run") {
-        options.dry_run = true;
-      } else if (arg == "--world") {
-        options.world = value();
-      } else if (arg == "--seed") {
-        options.seed = std::stoull(value());
-      } else if (arg == "--out") {
-        options.out = value();
-      } else if (arg == "--resume") {
-        options.resume = true;
-      } else if (arg == "--speed") {
-        options.speed = std::stod(value());
-        if (*options.speed < 0) throw UsageError{"--speed must be >= 0 (0 = as fast as possible)"};
-      } else if (arg == "--watchdog-s") {
-        options.watchdog_s = std::stod(value());
-        if (options.watchdog_s <= 0) throw UsageError{"--watchdog-s must be > 0"};
-      } else if (arg == "--plugin-path") {
-        options.plugin_paths.emplace_back(value());
-      } else if (arg.rfind("--", 0) != 0 && plugin_paths_only == nullptr && !have_mission) {
-        options.mission = arg;
-        have_mission = true;
-      } else {
-        throw UsageError{"unexpected argument " + arg};
-      }
-    } catch (const std::invalid_argument&) {
-      throw UsageError{"bad number for " + arg};
-    } catch (const std::out_of_range&) {
-      throw UsageError{"number out of range for " + arg};
+enum Option {
+  kDryRun = 1,
+  kWorld = 2,
+  kSeed = 4,
+  kOut = 8,
+  kResume = 16,
+  kSpeed = 32,
+  kWatchdog = 64,
+  kMission = 128
+};
+
+// Parses a mission subcommand's arguments (argv[2]...); `options` is a mask of what this
+// subcommand takes, --plugin-path always. Every option but --plugin-path may be given once.
+projtour::RunOptions parse_options(int argc, char** argv, int options) {
+  const std::string command = argv[1];
+  projtour::RunOptions run;
+  CLI::App app("projtour " + command, "projtour " + command);
+  // kUsage is the help; CLI11's --help would only describe this one subcommand.
+  app.set_help_flag();
+  // Unknown arguments are collected and reported below in projtour's words.
+  app.allow_extras();
+  std::string mission;
+  if (options & kMission) app.add_option("mission", mission, "MISSION.yaml");
+  if (options & kDryRun) app.add_flag("--dry-run", run.dry_run);
+  if (options & kWorld) {
+    app.add_option_function<std::string>("--world", [&](const std::string& w) { run.world = w; });
+  }
+  if (options & kSeed) {
+    projtour::cli::add_uint64(
+        app, "--seed", [&](std::uint64_t s) { run.seed = s; }, "N");
+  }
+  if (options & kOut) {
+    app.add_option_function<std::string>("--out", [&](const std::string& o) { run.out = o; });
+  }
+  if (options & kResume) app.add_flag("--resume", run.resume);
+  if (options & kSpeed) {
+    projtour::cli::add_finite(
+        app, "--speed", [&](double x) { run.speed = x; },
+        [](double x) { return x < 0 ? "must be >= 0 (0 = as fast as possible)" : ""; }, "X");
+  }
+  if (options & kWatchdog) {
+    projtour::cli::add_finite(
+        app, "--watchdog-s", [&](double s) { run.watchdog_s = s; },
+        [](double s) { return s <= 0 ? "must be > 0" : ""; }, "S");
+  }
+  std::vector<std::string> plugin_paths;
+  app.add_option("--plugin-path", plugin_paths, "DIR")->allow_extra_args(false);
+  for (CLI::Option* option : app.get_options()) {
+    if (option->get_name() != "--plugin-path") {
+      option->multi_option_policy(CLI::MultiOptionPolicy::Throw);
     }
   }
-  if (plugin_paths_only != nullptr) {
-    *plugin_paths_only = options.plugin_paths;
-  } else if (!have_mission) {
-    throw UsageError{std::string(argv[1]) + " needs a MISSION.yaml"};
+  try {
+    app.parse(argc - 1, argv + 1);
+  } catch (const CLI::ParseError& e) {
+    throw UsageError{e.what()};
   }
-  return options;
+  for (const std::string& extra : app.remaining()) {
+    if (extra.rfind("-", 0) == 0) throw UsageError{"unknown option " + extra + " for " + command};
+    throw UsageError{"unexpected argument " + extra};
+  }
+  if ((options & kMission) && mission.empty()) {
+    throw UsageError{command + " needs a MISSION.yaml"};
+  }
+  run.mission = mission;
+  run.plugin_paths.assign(plugin_paths.begin(), plugin_paths.end());
+  return run;
 }
 
 }  // namespace
@@ -99,25 +110,21 @@ int main(int argc, char** argv) {
   const std::string command = argv[1];
   try {
     if (command == "run") {
-      const auto options = parse_options(argc, argv,
-                                         {"--dry-run", "--world", "--seed", "--out", "--resume",
-                                          "--speed", "--plugin-path", "--watchdog-s"},
-                                         nullptr);
+      const auto options = parse_options(
+          argc, argv, kMission | kDryRun | kWorld | kSeed | kOut | kResume | kSpeed | kWatchdog);
       return projtour::run_command(options, std::cout, std::cerr);
     }
     if (command == "validate") {
-      const auto options =
-          parse_options(argc, argv, {"--dry-run", "--world", "--plugin-path"}, nullptr);
+      const auto options = parse_options(argc, argv, kMission | kDryRun | kWorld);
       return projtour::validate_command(options, std::cout, std::cerr);
     }
     if (command == "graph") {
-      const auto options = parse_options(argc, argv, {"--plugin-path"}, nullptr);
+      const auto options = parse_options(argc, argv, kMission);
       return projtour::graph_command(options, std::cout, std::cerr);
     }
     if (command == "plugins") {
-      std::vector<std::filesystem::path> paths;
-      parse_options(argc, argv, {"--plugin-path"}, &paths);
-      return projtour::run_plugins_command(paths, std::cout, std::cerr);
+      const auto options = parse_options(argc, argv, 0);
+      return projtour::run_plugins_command(options.plugin_paths, std::cout, std::cerr);
     }
     if (command == "localize") {
 #ifdef PROJTOUR_HAS_LOCALIZE

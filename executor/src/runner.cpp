@@ -17,7 +17,9 @@
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/ground_truth.hpp"
 #include "projtour/logger.hpp"
+#include "projtour_executor/atomic_file.hpp"
 #include "projtour_executor/executor.hpp"
+#include "projtour_executor/json_io.hpp"
 #include "projtour_executor/progress.hpp"
 #include "projtour_executor/report.hpp"
 #include "projtour_executor/summary_page.hpp"
@@ -389,7 +391,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
         executor.current_target()) {
       c.current_target = mission.targets[*executor.current_target()].id;
     }
-    write_file_atomically(run_dir / "checkpoint.json", checkpoint_to_json(c).dump(2) + "\n");
+    write_file_atomically(run_dir / "checkpoint.json", dump_json(checkpoint_to_json(c), 2) + "\n");
   };
   TargetDoneHook checkpoint_hook(write_checkpoint);
   TourTrace trace(run);
@@ -427,7 +429,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     err << "\nprojtour: aborted: " << summary.reason << "; safe stop done\n";
     try {
       write_checkpoint();
-      write_file_atomically(run_dir / "report.json", build_report(summary).dump(2) + "\n");
+      write_file_atomically(run_dir / "report.json", dump_json(build_report(summary), 2) + "\n");
     } catch (const std::exception& e) {
       err << "projtour: " << e.what() << "\n";
     }
@@ -483,7 +485,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   const RunSummary summary = make_summary(executor.outcome());
   try {
     write_checkpoint();
-    write_file_atomically(run_dir / "report.json", build_report(summary).dump(2) + "\n");
+    write_file_atomically(run_dir / "report.json", dump_json(build_report(summary), 2) + "\n");
   } catch (const std::exception& e) {
     err << "projtour: " << e.what() << "\n";
     return 1;

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "projtour_executor/atomic_file.hpp"
 #include "projtour_executor/tour_picture.hpp"
 
 namespace projtour {
@@ -71,8 +72,10 @@ std::string anchor(const std::string& id) {
 const Json* at_path(const Json& j, std::initializer_list<const char*> keys) {
   const Json* v = &j;
   for (const char* k : keys) {
-    v = v->find(k);
-    if (v == nullptr) return nullptr;
+    if (!v->is_object()) return nullptr;
+    const auto it = v->find(k);
+    if (it == v->end()) return nullptr;
+    v = &*it;
   }
   return v;
 }
@@ -80,16 +83,15 @@ const Json* at_path(const Json& j, std::initializer_list<const char*> keys) {
 std::optional<double> number(const Json& j, std::initializer_list<const char*> keys) {
   const Json* v = at_path(j, keys);
   if (v == nullptr || !v->is_number()) return std::nullopt;
-  return v->as_double();
+  return v->get<double>();
 }
 
 std::string text(const Json& j, std::initializer_list<const char*> keys) {
   const Json* v = at_path(j, keys);
   if (v == nullptr || v->is_null()) return "";
-  if (v->is_string()) return v->as_string();
-  if (v->is_bool()) return v->as_bool() ? "yes" : "no";
-  if (v->is_number()) return v->dump();
-  return v->dump();
+  if (v->is_string()) return v->get<std::string>();
+  if (v->is_boolean()) return v->get<bool>() ? "yes" : "no";
+  return dump_json(*v);
 }
 
 std::string fixed(double v, int precision) {
@@ -152,11 +154,11 @@ std::string with_unit(std::optional<double> v, int precision, const std::string&
 void flatten(const Json& j, const std::string& prefix,
              std::vector<std::pair<std::string, std::string>>& out) {
   if (j.is_object()) {
-    for (const auto& kv : j.as_object()) {
-      flatten(kv.second, prefix.empty() ? kv.first : prefix + "." + kv.first, out);
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      flatten(it.value(), prefix.empty() ? it.key() : prefix + "." + it.key(), out);
     }
   } else {
-    out.emplace_back(prefix, j.is_string() ? j.as_string() : j.dump());
+    out.emplace_back(prefix, j.is_string() ? j.get<std::string>() : dump_json(j));
   }
 }
 
@@ -212,8 +214,8 @@ void target_figures(std::ostringstream& h, const Json& t) {
   }
   std::vector<std::pair<std::string, std::string>> other;
   if (t.is_object()) {
-    for (const auto& kv : t.as_object()) {
-      if (kKnownTargetFields.count(kv.first) == 0) flatten(kv.second, kv.first, other);
+    for (auto it = t.begin(); it != t.end(); ++it) {
+      if (kKnownTargetFields.count(it.key()) == 0) flatten(it.value(), it.key(), other);
     }
   }
   for (const auto& [k, v] : other) rows.emplace_back(k, html_escape(v));
@@ -244,7 +246,7 @@ void target_pictures(std::ostringstream& h, const std::string& id,
   if (!body.empty()) h << "<div class=\"pictures\">\n" << body << "</div>\n";
 }
 
-void overview_table(std::ostringstream& h, const Json::Array& targets) {
+void overview_table(std::ostringstream& h, const Json& targets) {
   h << "<table class=\"overview\">\n<tr><th>target</th><th>outcome</th><th>localization error "
        "m</th><th>align ms</th><th>projection error before mm</th><th>projection error after "
        "mm</th><th>reason</th></tr>\n";
@@ -263,7 +265,7 @@ void overview_table(std::ostringstream& h, const Json::Array& targets) {
 
 // Median and worst projection error after alignment over the targets that have one: the tour's
 // headline figure.
-std::string projection_error_line(const Json::Array& targets) {
+std::string projection_error_line(const Json& targets) {
   std::vector<double> after;
   for (const Json& t : targets) {
     if (auto v = number(t, {"projection_error_mm", "after_align"})) after.push_back(*v);
@@ -294,23 +296,19 @@ footer{margin-top:32px;color:#888;font-size:85%}
 
 SummaryInput read_summary_input(const std::filesystem::path& run_dir) {
   const std::filesystem::path file = run_dir / "report.json";
-  std::ifstream in(file);
+  std::ifstream in(file, std::ios::binary);
   if (!in) throw std::runtime_error(file.string() + ": cannot read the report");
   const std::string content((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  try {
-    return SummaryInput{Json::parse(content)};
-  } catch (const std::exception& e) {
-    throw std::runtime_error(file.string() + ": " + e.what());
-  }
+  return SummaryInput{parse_json(content, file.string())};
 }
 
 std::string render_summary_page(const SummaryInput& input, const std::filesystem::path& run_dir) {
   const Json& r = input.report;
   const std::string mission = text(r, {"mission"});
-  static const Json::Array kNoTargets;
-  const Json* targets_json = r.find("targets");
-  const Json::Array& targets =
-      targets_json != nullptr && targets_json->is_array() ? targets_json->as_array() : kNoTargets;
+  static const Json kNoTargets = Json::array();
+  const Json* targets_json = at_path(r, {"targets"});
+  const Json& targets =
+      targets_json != nullptr && targets_json->is_array() ? *targets_json : kNoTargets;
 
   std::ostringstream h;
   h << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
@@ -321,11 +319,11 @@ std::string render_summary_page(const SummaryInput& input, const std::filesystem
 
   h << "<table class=\"summary\">\n";
   h << "<tr><th>outcome</th><td>" << badge(text(r, {"outcome"})) << "</td></tr>\n";
-  if (const Json* dry = r.find("dry_run"); dry != nullptr && dry->is_bool()) {
-    h << "<tr><th>run</th><td>" << (dry->as_bool() ? "dry run (simulated world)" : "on the robot")
+  if (const Json* dry = at_path(r, {"dry_run"}); dry != nullptr && dry->is_boolean()) {
+    h << "<tr><th>run</th><td>" << (dry->get<bool>() ? "dry run (simulated world)" : "on the robot")
       << "</td></tr>\n";
   }
-  if (r.find("seed") != nullptr) {
+  if (at_path(r, {"seed"}) != nullptr) {
     h << "<tr><th>seed</th><td>" << html_escape(text(r, {"seed"})) << "</td></tr>\n";
   }
   if (auto s = number(r, {"timing", "mission_s"})) {

@@ -13,7 +13,7 @@
 
 #include "projtour/plugin_loader.hpp"
 #include "projtour_executor/executor.hpp"
-#include "projtour_executor/json.hpp"
+#include "projtour_executor/json_io.hpp"
 
 namespace projtour {
 namespace {
@@ -33,7 +33,7 @@ std::vector<Json> read_jsonl(const fs::path& file) {
   std::vector<Json> out;
   std::istringstream in(read_text(file));
   std::string line;
-  while (std::getline(in, line)) out.push_back(Json::parse(line));
+  while (std::getline(in, line)) out.push_back(parse_json(line, file.string()));
   return out;
 }
 
@@ -111,29 +111,29 @@ TEST_F(Command, ScriptedTourRunsToCompletion) {
       projtour("run " + kSource + "/missions/scripted_tour.yaml --speed 0 --out " + run.string()),
       0)
       << err();
-  const Json report = Json::parse(read_text(run / "report.json"));
-  EXPECT_EQ(report.at("mission").as_string(), "scripted-tour");
-  EXPECT_FALSE(report.at("dry_run").as_bool());
-  EXPECT_EQ(report.at("seed").as_int(), 1);
-  EXPECT_EQ(report.at("outcome").as_string(), "completed");
-  EXPECT_GT(report.at("timing").at("mission_s").as_double(), 10.0);
+  const Json report = read_json_file(run / "report.json");
+  EXPECT_EQ(report.at("mission").get<std::string>(), "scripted-tour");
+  EXPECT_FALSE(report.at("dry_run").get<bool>());
+  EXPECT_EQ(report.at("seed").get<long long>(), 1);
+  EXPECT_EQ(report.at("outcome").get<std::string>(), "completed");
+  EXPECT_GT(report.at("timing").at("mission_s").get<double>(), 10.0);
   EXPECT_TRUE(report.at("timing").at("wall_s").is_number());
-  const auto& targets = report.at("targets").as_array();
+  const auto& targets = report.at("targets");
   ASSERT_EQ(targets.size(), 3u);
-  EXPECT_EQ(targets[1].at("id").as_string(), "pillar");
-  EXPECT_EQ(targets[1].at("retries").as_int(), 1);            // the poor fit re-captured
-  EXPECT_EQ(targets[1].find("localization_error"), nullptr);  // not a dry run
+  EXPECT_EQ(targets[1].at("id").get<std::string>(), "pillar");
+  EXPECT_EQ(targets[1].at("retries").get<long long>(), 1);  // the poor fit re-captured
+  EXPECT_FALSE(targets[1].contains("localization_error"));  // not a dry run
   for (const char* id : {"rabbit", "pillar", "sign"}) {
     EXPECT_TRUE(fs::is_directory(run / "targets" / id)) << id;
   }
   const auto events = read_jsonl(run / "events.jsonl");
   ASSERT_GT(events.size(), 80u);
-  EXPECT_EQ(events.front().dump(),
+  EXPECT_EQ(dump_json(events.front()),
             R"({"t": 0.0, "event": "enter", "state": "tour", "target": null})");
-  EXPECT_EQ(events.back().at("event").as_string(), "outcome");
-  EXPECT_EQ(events.back().at("state").as_string(), "tour");
-  const Json checkpoint = Json::parse(read_text(run / "checkpoint.json"));
-  EXPECT_EQ(checkpoint.at("done").as_array().size(), 3u);
+  EXPECT_EQ(events.back().at("event").get<std::string>(), "outcome");
+  EXPECT_EQ(events.back().at("state").get<std::string>(), "tour");
+  const Json checkpoint = read_json_file(run / "checkpoint.json");
+  EXPECT_EQ(checkpoint.at("done").size(), 3u);
   EXPECT_TRUE(checkpoint.at("current_target").is_null());
   EXPECT_NE(out().find("run directory: " + run.string()), std::string::npos);
   EXPECT_NE(out().find("pillar  projected"), std::string::npos) << out();
@@ -143,13 +143,13 @@ TEST_F(Command, SkipsExitThreeWithReasons) {
   const fs::path mission = write_mission(kLinearMachine);
   ASSERT_EQ(projtour("run " + mission.string() + " --speed 0 --out " + (dir_ / "run").string()), 3)
       << err();
-  const Json report = Json::parse(read_text(dir_ / "run" / "report.json"));
-  EXPECT_EQ(report.at("outcome").as_string(), "completed_with_skips");
-  const auto& targets = report.at("targets").as_array();
-  EXPECT_EQ(targets[0].at("outcome").as_string(), "projected");
-  EXPECT_EQ(targets[0].find("reason"), nullptr);
-  EXPECT_EQ(targets[1].at("outcome").as_string(), "skipped");
-  EXPECT_EQ(targets[1].at("reason").as_string(), "off_screen");
+  const Json report = read_json_file(dir_ / "run" / "report.json");
+  EXPECT_EQ(report.at("outcome").get<std::string>(), "completed_with_skips");
+  const auto& targets = report.at("targets");
+  EXPECT_EQ(targets[0].at("outcome").get<std::string>(), "projected");
+  EXPECT_FALSE(targets[0].contains("reason"));
+  EXPECT_EQ(targets[1].at("outcome").get<std::string>(), "skipped");
+  EXPECT_EQ(targets[1].at("reason").get<std::string>(), "off_screen");
 }
 
 TEST_F(Command, AbortExitsOne) {
@@ -162,9 +162,9 @@ TEST_F(Command, AbortExitsOne) {
   EXPECT_NE(err().find("aborted: tour/visit/work: failed: scripted failure on run 2"),
             std::string::npos)
       << err();
-  const Json report = Json::parse(read_text(dir_ / "run" / "report.json"));
-  EXPECT_EQ(report.at("outcome").as_string(), "aborted");
-  EXPECT_EQ(report.at("targets").as_array()[1].at("outcome").as_string(), "failed");
+  const Json report = read_json_file(dir_ / "run" / "report.json");
+  EXPECT_EQ(report.at("outcome").get<std::string>(), "aborted");
+  EXPECT_EQ(report.at("targets")[1].at("outcome").get<std::string>(), "failed");
   // Every device was brought to a safe state.
   EXPECT_NE(read_text(dir_ / "run" / "test_drivers.log").find("test_projector safe_stop"),
             std::string::npos);
@@ -203,6 +203,61 @@ TEST_F(Command, UsageErrorsExitTwo) {
   EXPECT_EQ(projtour("fly"), 2);
 }
 
+// Numbers are read whole and in range, and single-valued options given once: each mistake is
+// exit 2 with the option named, before anything runs.
+TEST_F(Command, BadNumbersAndRepeatedOptionsExitTwoNamingTheOption) {
+  const std::string run =
+      "run " + kSource + "/missions/scripted_tour.yaml --out " + (dir_ / "run").string() + " ";
+  const std::pair<const char*, const char*> cases[] = {
+      {"--seed 5abc", "--seed"},
+      {"--seed 1.5", "--seed"},
+      {"--seed -1", "--seed"},
+      {"--seed 18446744073709551616", "--seed"},
+      {"--seed 0x10", "--seed"},
+      {"--seed ' 5'", "--seed"},
+      {"--speed 1x", "--speed"},
+      {"--speed nan", "--speed"},
+      {"--speed inf", "--speed"},
+      {"--speed 1e999", "--speed"},
+      {"--speed -1", "--speed"},
+      {"--watchdog-s nan", "--watchdog-s"},
+      {"--watchdog-s -inf", "--watchdog-s"},
+      {"--watchdog-s 0", "--watchdog-s"},
+      {"--seed 1 --seed 2", "--seed"},
+      {"--out b", "--out"},  // the second --out
+      {"--speed 1 --speed 1", "--speed"},
+      {"--dry-run --dry-run", "--dry-run"},
+      {"--world a.yaml --world b.yaml", "--world"},
+      {"--seed", "--seed"},
+  };
+  for (const auto& [args, option] : cases) {
+    EXPECT_EQ(projtour(run + args), 2) << args << ": " << err();
+    EXPECT_NE(err().find(std::string("projtour: ") + option + ": "), std::string::npos)
+        << args << ": " << err();
+    EXPECT_NE(err().find("usage:"), std::string::npos) << args;
+    EXPECT_FALSE(fs::exists(dir_ / "run")) << args;
+  }
+  EXPECT_EQ(projtour("validate " + kSource + "/missions/scripted_tour.yaml --seed 1"), 2);
+  EXPECT_NE(err().find("unknown option --seed for validate"), std::string::npos) << err();
+  EXPECT_EQ(projtour("plugins extra"), 2);
+  EXPECT_NE(err().find("unexpected argument extra"), std::string::npos) << err();
+}
+
+// --plugin-path may repeat (the fixture adds one more), and the largest seed is a seed.
+TEST_F(Command, PluginPathRepeatsAndTheLargestSeedIsWrittenUnsigned) {
+  ASSERT_EQ(projtour("plugins --plugin-path " + kPluginPath), 0) << err();
+  const fs::path run = dir_ / "run";
+  ASSERT_EQ(
+      projtour("run " + kSource + "/missions/scripted_tour.yaml --seed 18446744073709551615 " +
+               "--speed 0 --out " + run.string()),
+      0)
+      << err();
+  EXPECT_NE(read_text(run / "report.json").find("\"seed\": 18446744073709551615,"),
+            std::string::npos);
+  EXPECT_EQ(read_json_file(run / "checkpoint.json").at("seed").get<std::uint64_t>(),
+            18446744073709551615u);
+}
+
 TEST_F(Command, GraphPrintsDotWithClusters) {
   ASSERT_EQ(projtour("graph " + kSource + "/missions/scripted_tour.yaml"), 0) << err();
   const std::string dot = out();
@@ -226,12 +281,12 @@ TEST_F(Command, SameSeedSameEventsAndReport) {
         3);
   }
   EXPECT_EQ(read_text(dir_ / "a" / "events.jsonl"), read_text(dir_ / "b" / "events.jsonl"));
-  Json a = Json::parse(read_text(dir_ / "a" / "report.json"));
-  Json b = Json::parse(read_text(dir_ / "b" / "report.json"));
-  EXPECT_EQ(a.at("seed").as_int(), 5);
-  a.set("timing", Json());
-  b.set("timing", Json());
-  EXPECT_EQ(a.dump(), b.dump());
+  Json a = read_json_file(dir_ / "a" / "report.json");
+  Json b = read_json_file(dir_ / "b" / "report.json");
+  EXPECT_EQ(a.at("seed").get<long long>(), 5);
+  a["timing"] = nullptr;
+  b["timing"] = nullptr;
+  EXPECT_EQ(dump_json(a), dump_json(b));
 }
 
 // SIGINT in the middle of the second target: safe stop, checkpoint, report, exit 130; then
@@ -263,11 +318,11 @@ TEST_F(Command, InterruptThenResume) {
   ASSERT_TRUE(WIFEXITED(status));
   ASSERT_EQ(WEXITSTATUS(status), 130) << read_text(dir_ / "stderr1.txt");
 
-  const Json checkpoint = Json::parse(read_text(run / "checkpoint.json"));
-  ASSERT_EQ(checkpoint.at("done").as_array().size(), 1u);
-  EXPECT_EQ(checkpoint.at("done").as_array()[0].at("id").as_string(), "rabbit");
-  EXPECT_EQ(checkpoint.at("current_target").as_string(), "pillar");
-  EXPECT_EQ(Json::parse(read_text(run / "report.json")).at("outcome").as_string(), "interrupted");
+  const Json checkpoint = read_json_file(run / "checkpoint.json");
+  ASSERT_EQ(checkpoint.at("done").size(), 1u);
+  EXPECT_EQ(checkpoint.at("done")[0].at("id").get<std::string>(), "rabbit");
+  EXPECT_EQ(checkpoint.at("current_target").get<std::string>(), "pillar");
+  EXPECT_EQ(read_json_file(run / "report.json").at("outcome").get<std::string>(), "interrupted");
   const std::string safe_stops = read_text(run / "test_drivers.log");
   for (const char* d : {"test_base", "test_projector", "test_pan_tilt"}) {
     EXPECT_NE(safe_stops.find(std::string(d) + " safe_stop"), std::string::npos) << d;
@@ -278,16 +333,17 @@ TEST_F(Command, InterruptThenResume) {
   const auto events = read_jsonl(run / "events.jsonl");
   ASSERT_GT(events.size(), events_before);
   const Json& first_new = events[events_before + 1];  // after "enter tour"
-  EXPECT_EQ(first_new.at("state").as_string(), "tour/visit");
-  EXPECT_EQ(first_new.at("target").as_string(), "pillar");
-  EXPECT_EQ(events[events_before + 2].at("state").as_string(), "tour/visit/navigate");
-  EXPECT_GE(events[events_before].at("t").as_double(), checkpoint.at("mission_s").as_double());
+  EXPECT_EQ(first_new.at("state").get<std::string>(), "tour/visit");
+  EXPECT_EQ(first_new.at("target").get<std::string>(), "pillar");
+  EXPECT_EQ(events[events_before + 2].at("state").get<std::string>(), "tour/visit/navigate");
+  EXPECT_GE(events[events_before].at("t").get<double>(), checkpoint.at("mission_s").get<double>());
   for (std::size_t i = events_before; i < events.size(); ++i) {
-    ASSERT_TRUE(events[i].at("target").is_null() || events[i].at("target").as_string() != "rabbit");
+    ASSERT_TRUE(events[i].at("target").is_null() ||
+                events[i].at("target").get<std::string>() != "rabbit");
   }
-  const Json report = Json::parse(read_text(run / "report.json"));
-  EXPECT_EQ(report.at("outcome").as_string(), "completed");
-  EXPECT_EQ(report.at("targets").as_array().size(), 3u);
+  const Json report = read_json_file(run / "report.json");
+  EXPECT_EQ(report.at("outcome").get<std::string>(), "completed");
+  EXPECT_EQ(report.at("targets").size(), 3u);
 }
 
 // Regression for a behaviour whose tick never returns (a driver call stuck on a dead device):
@@ -307,11 +363,11 @@ TEST_F(Command, WatchdogEndsABehaviourHungInTick) {
   const double waited_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   EXPECT_LT(waited_s, 20.0);
-  const Json report = Json::parse(read_text(dir_ / "run" / "report.json"));
-  EXPECT_EQ(report.at("outcome").as_string(), "aborted");
-  EXPECT_EQ(report.at("reason").as_string(),
+  const Json report = read_json_file(dir_ / "run" / "report.json");
+  EXPECT_EQ(report.at("outcome").get<std::string>(), "aborted");
+  EXPECT_EQ(report.at("reason").get<std::string>(),
             "behaviour scripted in state tour/visit/work hung: one tick ran past 1.5 s");
-  EXPECT_EQ(report.at("targets").as_array().size(), 1u);  // the first target was projected
+  EXPECT_EQ(report.at("targets").size(), 1u);  // the first target was projected
   EXPECT_TRUE(fs::exists(dir_ / "run" / "checkpoint.json"));
   const std::string safe_stops = read_text(dir_ / "run" / "test_drivers.log");
   for (const char* d : {"test_base", "test_projector", "test_pan_tilt"}) {
@@ -345,10 +401,10 @@ TEST_F(Command, BehaviourIgnoringCancelIsNamedAndStillSafeStopped) {
   EXPECT_EQ(WEXITSTATUS(status), 130) << read_text(dir_ / "stderr1.txt");
   EXPECT_NE(read_text(dir_ / "stderr1.txt").find("tour/visit/work ignored the cancel"),
             std::string::npos);
-  const Json report = Json::parse(read_text(run / "report.json"));
-  EXPECT_EQ(report.at("outcome").as_string(), "interrupted");
-  ASSERT_EQ(report.at("ignored_cancel").as_array().size(), 1u);
-  EXPECT_EQ(report.at("ignored_cancel").as_array()[0].as_string(), "tour/visit/work (scripted)");
+  const Json report = read_json_file(run / "report.json");
+  EXPECT_EQ(report.at("outcome").get<std::string>(), "interrupted");
+  ASSERT_EQ(report.at("ignored_cancel").size(), 1u);
+  EXPECT_EQ(report.at("ignored_cancel")[0].get<std::string>(), "tour/visit/work (scripted)");
   EXPECT_NE(read_text(run / "test_drivers.log").find("test_base safe_stop"), std::string::npos);
 }
 

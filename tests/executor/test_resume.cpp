@@ -4,6 +4,8 @@
 #include <filesystem>
 
 #include "executor_harness.hpp"
+#include "projtour_executor/atomic_file.hpp"
+#include "projtour_executor/json_io.hpp"
 #include "projtour_executor/report.hpp"
 
 namespace projtour::testing {
@@ -39,7 +41,7 @@ TEST_P(ResumeAfterInterruption, RestartsTheInterruptedTargetFromNavigate) {
     checkpoint.mission_s = first.clock.now_s();
     checkpoint.done = first.executor->records();
     checkpoint.current_target = "pillar";
-    write_file_atomically(dir / "checkpoint.json", checkpoint_to_json(checkpoint).dump(2));
+    write_file_atomically(dir / "checkpoint.json", dump_json(checkpoint_to_json(checkpoint), 2));
   }
   ASSERT_EQ(checkpoint.done.size(), 1u);
   EXPECT_EQ(checkpoint.done[0].id, "rabbit");
@@ -112,7 +114,7 @@ TEST(Resume, CheckpointOfAnotherMissionIsRefused) {
                     ("projtour_ckpt_" + std::to_string(::getpid()) + ".json");
   Checkpoint c;
   c.mission = "elsewhere";
-  write_file_atomically(file, checkpoint_to_json(c).dump());
+  write_file_atomically(file, dump_json(checkpoint_to_json(c)));
   Harness h;
   try {
     read_checkpoint(file, h.mission);
@@ -130,12 +132,14 @@ TEST(Resume, SkippedRecordsKeepTheirReasonThroughTheCheckpoint) {
   r.outcome = "skipped";
   r.reason = "poor_fit: inliers 0.2";
   r.retries = 3;
-  r.measurements.set("projected_s", 0.0);
-  const TargetRecord back = TargetRecord::from_json(Json::parse(r.to_json().dump()), 2);
+  r.measurements.projected_s = 0.0;
+  const TargetRecord back = parse_json(dump_json(Json(r)), "record").get<TargetRecord>();
   EXPECT_EQ(back.id, "sign");
   EXPECT_EQ(back.reason, r.reason);
   EXPECT_EQ(back.retries, 3);
-  EXPECT_EQ(back.measurements.dump(), r.measurements.dump());
+  ASSERT_TRUE(back.measurements.projected_s.has_value());
+  EXPECT_EQ(*back.measurements.projected_s, 0.0);
+  EXPECT_EQ(dump_json(Json(back)), dump_json(Json(r)));
 }
 
 }  // namespace

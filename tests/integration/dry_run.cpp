@@ -25,8 +25,8 @@ std::string last_component(const std::string& state) {
   return state.substr(state.rfind('/') + 1);
 }
 bool has_target(const Json& event, const std::string& target) {
-  const Json* t = event.find("target");
-  return t != nullptr && t->is_string() && t->as_string() == target;
+  const auto t = event.find("target");
+  return t != event.end() && t->is_string() && t->get<std::string>() == target;
 }
 
 }  // namespace
@@ -128,7 +128,7 @@ std::vector<Json> read_jsonl(const fs::path& file) {
   while (std::getline(in, line)) {
     ++number;
     try {
-      out.push_back(Json::parse(line));
+      out.push_back(parse_json(line, file.string()));
     } catch (const std::exception& e) {
       throw std::runtime_error(file.string() + ":" + std::to_string(number) + ": " + e.what() +
                                ": " + line);
@@ -138,22 +138,18 @@ std::vector<Json> read_jsonl(const fs::path& file) {
 }
 
 Json read_json(const fs::path& file) {
-  try {
-    return Json::parse(read_text(file));
-  } catch (const std::exception& e) {
-    throw std::runtime_error(file.string() + ": " + e.what());
-  }
+  return read_json_file(file);
 }
 
 std::vector<StepOutcome> step_outcomes(const std::vector<Json>& events, const std::string& target) {
   std::vector<StepOutcome> out;
   for (const Json& e : events) {
-    if (e.at("event").as_string() != "outcome" || !has_target(e, target)) continue;
-    const std::string& state = e.at("state").as_string();
+    if (e.at("event").get<std::string>() != "outcome" || !has_target(e, target)) continue;
+    const std::string& state = e.at("state").get<std::string>();
     if (!is_visit_step(state)) continue;
-    const Json* message = e.find("message");
-    out.push_back({last_component(state), e.at("outcome").as_string(),
-                   message != nullptr ? message->as_string() : "", e.at("t").as_double()});
+    const auto message = e.find("message");
+    out.push_back({last_component(state), e.at("outcome").get<std::string>(),
+                   message != e.end() ? message->get<std::string>() : "", e.at("t").get<double>()});
   }
   return out;
 }
@@ -162,13 +158,13 @@ std::vector<std::string> outcome_chain(const std::vector<Json>& events, const st
   std::vector<std::string> chain;
   for (const Json& e : events) {
     if (!has_target(e, target)) continue;
-    const std::string& type = e.at("event").as_string();
-    const std::string& state = e.at("state").as_string();
+    const std::string& type = e.at("event").get<std::string>();
+    const std::string& state = e.at("state").get<std::string>();
     if (!is_visit_step(state)) continue;
     if (type == "outcome") {
-      chain.push_back(last_component(state) + ":" + e.at("outcome").as_string());
+      chain.push_back(last_component(state) + ":" + e.at("outcome").get<std::string>());
     } else if (type == "transition") {
-      const std::string& to = e.at("to").as_string();
+      const std::string& to = e.at("to").get<std::string>();
       if (to == "skip_target" || to == "finish" || to == "abort") chain.push_back(to);
     }
   }
@@ -182,8 +178,8 @@ std::string join(const std::vector<std::string>& items) {
 }
 
 const Json& report_target(const Json& report, const std::string& id) {
-  for (const Json& t : report.at("targets").as_array()) {
-    if (t.at("id").as_string() == id) return t;
+  for (const Json& t : report.at("targets")) {
+    if (t.at("id").get<std::string>() == id) return t;
   }
   throw std::runtime_error("report.json has no target " + id);
 }
@@ -195,13 +191,13 @@ std::vector<std::string> projector_safety_problems(const fs::path& run_dir,
   std::vector<std::pair<double, double>> project_spells;
   std::optional<double> entered_s;
   for (const Json& e : events) {
-    if (!is_visit_step(e.at("state").as_string()) ||
-        last_component(e.at("state").as_string()) != "project") {
+    if (!is_visit_step(e.at("state").get<std::string>()) ||
+        last_component(e.at("state").get<std::string>()) != "project") {
       continue;
     }
-    if (e.at("event").as_string() == "enter") entered_s = e.at("t").as_double();
-    if (e.at("event").as_string() == "exit" && entered_s) {
-      project_spells.emplace_back(*entered_s, e.at("t").as_double());
+    if (e.at("event").get<std::string>() == "enter") entered_s = e.at("t").get<double>();
+    if (e.at("event").get<std::string>() == "exit" && entered_s) {
+      project_spells.emplace_back(*entered_s, e.at("t").get<double>());
       entered_s.reset();
     }
   }
@@ -216,10 +212,10 @@ std::vector<std::string> projector_safety_problems(const fs::path& run_dir,
   const std::vector<Json> log = read_jsonl(run_dir / "sim_projector_log.jsonl");
   std::optional<double> lit_since_s;
   for (const Json& e : log) {
-    const double t_s = e.at("t").as_double();
-    const bool show = e.at("event").as_string() == "show";
-    const bool moving = e.at("base_moving").as_bool() || e.at("head_moving").as_bool();
-    const std::string at = " at t=" + Json(t_s).dump() + " s (" + e.dump() + ")";
+    const double t_s = e.at("t").get<double>();
+    const bool show = e.at("event").get<std::string>() == "show";
+    const bool moving = e.at("base_moving").get<bool>() || e.at("head_moving").get<bool>();
+    const std::string at = " at t=" + json_number_text(t_s) + " s (" + e.dump() + ")";
     if (show) {
       if (moving) problems.push_back("shown while the base or head moved" + at);
       if (!lit_since_s) lit_since_s = t_s;
@@ -228,13 +224,13 @@ std::vector<std::string> projector_safety_problems(const fs::path& run_dir,
     if (!lit_since_s) continue;  // blanking a blank projector
     if (moving) problems.push_back("still lit when the base or head moved" + at);
     if (!inside_project(*lit_since_s, t_s)) {
-      problems.push_back("lit from t=" + Json(*lit_since_s).dump() + " s to t=" + Json(t_s).dump() +
-                         " s outside a project state");
+      problems.push_back("lit from t=" + json_number_text(*lit_since_s) +
+                         " s to t=" + json_number_text(t_s) + " s outside a project state");
     }
     lit_since_s.reset();
   }
   if (lit_since_s) {
-    problems.push_back("left lit at the end of the run (since t=" + Json(*lit_since_s).dump() +
+    problems.push_back("left lit at the end of the run (since t=" + json_number_text(*lit_since_s) +
                        " s)");
   }
   return problems;

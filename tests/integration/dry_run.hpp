@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "projtour_executor/json.hpp"
+#include "projtour_executor/json_io.hpp"
 
 namespace projtour::integration {
 

@@ -21,10 +21,10 @@ class Faults : public DryRunTest {
   DryRunResult run_fault(const std::string& world, int exit_code) {
     DryRunResult r = dry_run(world, "run");
     EXPECT_EQ(r.exit_code, exit_code) << r.err;
-    EXPECT_EQ(r.report.at("outcome").as_string(),
+    EXPECT_EQ(r.report.at("outcome").get<std::string>(),
               exit_code == 0 ? "completed" : "completed_with_skips");
     const Json& next = report_target(r.report, kNext);
-    EXPECT_EQ(next.at("outcome").as_string(), "projected") << next.dump();
+    EXPECT_EQ(next.at("outcome").get<std::string>(), "projected") << next.dump();
     const auto chain = outcome_chain(r.events, kNext);
     EXPECT_EQ(join(chain),
               "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
@@ -32,8 +32,8 @@ class Faults : public DryRunTest {
         << "the target after the fault";
     int shown_on_next = 0;
     for (const Json& e : read_jsonl(r.dir / "sim_projector_log.jsonl")) {
-      shown_on_next += e.at("event").as_string() == "show" && e.at("target").is_string() &&
-                       e.at("target").as_string() == kNext;
+      shown_on_next += e.at("event").get<std::string>() == "show" && e.at("target").is_string() &&
+                       e.at("target").get<std::string>() == kNext;
     }
     EXPECT_GE(shown_on_next, 1) << "the simulated projector never showed the sign";
     return r;
@@ -42,12 +42,12 @@ class Faults : public DryRunTest {
   // The faulted target was skipped for a reason that matches `reason`.
   static void expect_skipped(const DryRunResult& r, const std::string& reason) {
     const Json& t = report_target(r.report, kFaulted);
-    EXPECT_EQ(t.at("outcome").as_string(), "skipped");
-    ASSERT_NE(t.find("reason"), nullptr) << t.dump();
-    EXPECT_TRUE(std::regex_search(t.at("reason").as_string(), std::regex(reason)))
-        << t.at("reason").as_string() << " !~ " << reason;
-    if (const Json* shown_s = t.find("projected_s")) {
-      EXPECT_EQ(shown_s->as_double(), 0.0) << "a skipped target was not projected";
+    EXPECT_EQ(t.at("outcome").get<std::string>(), "skipped");
+    ASSERT_TRUE(t.contains("reason")) << t.dump();
+    EXPECT_TRUE(std::regex_search(t.at("reason").get<std::string>(), std::regex(reason)))
+        << t.at("reason").get<std::string>() << " !~ " << reason;
+    if (t.contains("projected_s")) {
+      EXPECT_EQ(t.at("projected_s").get<double>(), 0.0) << "a skipped target was not projected";
     }
   }
 };
@@ -57,8 +57,8 @@ class Faults : public DryRunTest {
 TEST_F(Faults, HalfTheFramesDroppedIsRecoveredByWaiting) {
   const DryRunResult r = run_fault("w_frame_dropout.yaml", 0);
   const Json& t = report_target(r.report, kFaulted);
-  EXPECT_EQ(t.at("outcome").as_string(), "projected");
-  EXPECT_EQ(t.find("reason"), nullptr);
+  EXPECT_EQ(t.at("outcome").get<std::string>(), "projected");
+  EXPECT_FALSE(t.contains("reason"));
   const auto chain = outcome_chain(r.events, kFaulted);
   EXPECT_EQ(std::count(chain.begin(), chain.end(), "capture:no_frame"), 0) << join(chain);
   EXPECT_EQ(chain.back(), "finish") << join(chain);
@@ -71,9 +71,10 @@ TEST_F(Faults, HalfTheFramesDroppedIsRecoveredByWaiting) {
   ASSERT_NE(capture, steps.end());
   double entered_s = -1.0;
   for (const Json& e : r.events) {
-    if (e.at("event").as_string() == "enter" && e.at("state").as_string() == "tour/visit/capture" &&
-        e.at("target").is_string() && e.at("target").as_string() == kFaulted) {
-      entered_s = e.at("t").as_double();
+    if (e.at("event").get<std::string>() == "enter" &&
+        e.at("state").get<std::string>() == "tour/visit/capture" && e.at("target").is_string() &&
+        e.at("target").get<std::string>() == kFaulted) {
+      entered_s = e.at("t").get<double>();
       break;
     }
   }
@@ -88,7 +89,7 @@ TEST_F(Faults, AllFramesDroppedRetriesCaptureThenSkips) {
             "navigate:succeeded > aim:succeeded > capture:no_frame > capture:no_frame > "
             "capture:no_frame > skip_target");
   expect_skipped(r, R"(^no_frame: got 0 of 1 frame\(s\) in 2 s \([1-9][0-9]* dropped\)$)");
-  EXPECT_EQ(report_target(r.report, kFaulted).at("retries").as_int(), 2);
+  EXPECT_EQ(report_target(r.report, kFaulted).at("retries").get<long long>(), 2);
 }
 
 // Regression: a fault on a revisit acted on the first visit to that place, since the two
@@ -97,13 +98,13 @@ TEST_F(Faults, AllFramesDroppedRetriesCaptureThenSkips) {
 TEST_F(Faults, AFaultOnARevisitActsOnTheRevisitOnly) {
   mission_ = "revisit_tour.yaml";
   const DryRunResult r = run_fault("w_revisit_frames_lost.yaml", 3);
-  EXPECT_EQ(report_target(r.report, kFaulted).at("outcome").as_string(), "projected");
+  EXPECT_EQ(report_target(r.report, kFaulted).at("outcome").get<std::string>(), "projected");
   EXPECT_EQ(join(outcome_chain(r.events, "rabbit-again")),
             "navigate:succeeded > aim:succeeded > capture:no_frame > capture:no_frame > "
             "capture:no_frame > skip_target");
   const Json& again = report_target(r.report, "rabbit-again");
-  EXPECT_EQ(again.at("outcome").as_string(), "skipped");
-  EXPECT_EQ(again.at("reason").as_string().rfind("no_frame:", 0), 0u) << again.dump();
+  EXPECT_EQ(again.at("outcome").get<std::string>(), "skipped");
+  EXPECT_EQ(again.at("reason").get<std::string>().rfind("no_frame:", 0), 0u) << again.dump();
 }
 
 // The target is gone: align finds no points where it should stand, re-aims once (aim's one
@@ -114,7 +115,7 @@ TEST_F(Faults, TargetMissingReAimsThenSkips) {
             "navigate:succeeded > aim:succeeded > capture:succeeded > align:no_target > "
             "aim:succeeded > capture:succeeded > align:no_target > skip_target");
   expect_skipped(r, "^no_target: 0 points within [0-9.]+ m of the expected target");
-  EXPECT_EQ(report_target(r.report, kFaulted).at("retries").as_int(), 1);
+  EXPECT_EQ(report_target(r.report, kFaulted).at("retries").get<long long>(), 1);
 }
 
 // A board hangs between the stand-off pose and the rabbit (above the laser plane, so navigation
@@ -158,9 +159,9 @@ TEST_F(Faults, KidnappedRobotSkipsTheTargetAndRecoversByTheNext) {
               join(next) == "navigate:lost > relocalize:succeeded > navigate:succeeded > " + tail)
       << join(next);
   const Json& sign = report_target(r.report, kNext);
-  EXPECT_EQ(sign.at("outcome").as_string(), "projected") << sign.dump();
-  EXPECT_LT(sign.at("localization_error").at("trans_m").as_double(), 0.1) << sign.dump();
-  EXPECT_LT(sign.at("projection_error_mm").at("after_align").as_double(), 20.0) << sign.dump();
+  EXPECT_EQ(sign.at("outcome").get<std::string>(), "projected") << sign.dump();
+  EXPECT_LT(sign.at("localization_error").at("trans_m").get<double>(), 0.1) << sign.dump();
+  EXPECT_LT(sign.at("projection_error_mm").at("after_align").get<double>(), 20.0) << sign.dump();
 }
 
 // The depth camera disconnects as capture asks for its first frame at the rabbit: capture fails
@@ -182,8 +183,8 @@ TEST_F(Faults, ProjectorFailureSkips) {
             "project:failed > skip_target");
   expect_skipped(r, "^failed: start failed: simulated projector: lamp failure$");
   for (const Json& e : read_jsonl(r.dir / "sim_projector_log.jsonl")) {
-    EXPECT_FALSE(e.at("event").as_string() == "show" && e.at("target").is_string() &&
-                 e.at("target").as_string() == kFaulted)
+    EXPECT_FALSE(e.at("event").get<std::string>() == "show" && e.at("target").is_string() &&
+                 e.at("target").get<std::string>() == kFaulted)
         << e.dump();
   }
 }

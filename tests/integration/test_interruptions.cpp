@@ -52,8 +52,9 @@ struct KillMoment {
 // The step a cancel ended ("" when the SIGINT came between steps or the run was over).
 std::string cancelled_step(const std::vector<Json>& events) {
   for (auto it = events.rbegin(); it != events.rend(); ++it) {
-    if (it->at("event").as_string() == "outcome" && it->at("outcome").as_string() == "cancelled") {
-      const std::string& state = it->at("state").as_string();
+    if (it->at("event").get<std::string>() == "outcome" &&
+        it->at("outcome").get<std::string>() == "cancelled") {
+      const std::string& state = it->at("state").get<std::string>();
       return state.substr(state.rfind('/') + 1);
     }
   }
@@ -73,7 +74,7 @@ class Interruptions : public DryRunTest {
         text.erase(text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1);
         std::size_t from = 0;
         for (std::size_t end; (end = text.find('\n', from)) != std::string::npos; from = end + 1) {
-          Json::parse(text.substr(from, end - from));
+          parse_json(text.substr(from, end - from), "events.jsonl");
         }
       }
     } catch (const std::exception& e) {
@@ -145,9 +146,9 @@ class Interruptions : public DryRunTest {
     std::vector<Json> events1;
     try {
       const Json report = read_json(run / "report.json");
-      EXPECT_EQ(report.at("outcome").as_string(), "interrupted") << when;
+      EXPECT_EQ(report.at("outcome").get<std::string>(), "interrupted") << when;
       const Json checkpoint = read_json(run / "checkpoint.json");
-      EXPECT_LE(checkpoint.at("done").as_array().size(), kTargets.size()) << when;
+      EXPECT_LE(checkpoint.at("done").size(), kTargets.size()) << when;
       events1 = read_jsonl(run / "events.jsonl");
       for (const auto& p : projector_safety_problems(run, events1)) {
         ADD_FAILURE() << when << ": " << p;
@@ -173,7 +174,7 @@ class Interruptions : public DryRunTest {
       }
       const Json report = read_json(run / "report.json");
       read_json(run / "checkpoint.json");
-      const auto& records = report.at("targets").as_array();
+      const auto& records = report.at("targets");
       EXPECT_EQ(records.size(), kTargets.size()) << when << ": " << report.dump(2);
       for (const std::string& id : kTargets) {
         int projected = 0;
@@ -181,17 +182,17 @@ class Interruptions : public DryRunTest {
           projected += s.step == "project" && s.outcome == "succeeded";
         }
         const Json& record = report_target(report, id);
-        if (record.at("outcome").as_string() == "projected") {
+        if (record.at("outcome").get<std::string>() == "projected") {
           EXPECT_EQ(projected, 1) << when << ": " << id << " projected " << projected
                                   << " times over the two runs";
         } else {
           EXPECT_EQ(second_exit, 3) << when;
-          EXPECT_EQ(record.at("outcome").as_string(), "skipped") << when;
-          EXPECT_FALSE(record.at("reason").as_string().empty()) << when;
+          EXPECT_EQ(record.at("outcome").get<std::string>(), "skipped") << when;
+          EXPECT_FALSE(record.at("reason").get<std::string>().empty()) << when;
           EXPECT_LE(projected, 1) << when << ": " << id;
         }
       }
-      EXPECT_EQ(report.at("outcome").as_string(),
+      EXPECT_EQ(report.at("outcome").get<std::string>(),
                 second_exit == 0 ? "completed" : "completed_with_skips")
           << when;
     } catch (const std::exception& e) {
@@ -217,7 +218,7 @@ TEST_F(Interruptions, SigintAnywhereThenResumeProjectsEveryTargetOnce) {
   // Any event before the last visit ends (a SIGINT after the tour is its own test below).
   std::size_t last_visit_exit = 0;
   for (std::size_t i = 0; i < whole.events.size(); ++i) {
-    if (whole.events[i].at("state").as_string() == "tour/visit") last_visit_exit = i;
+    if (whole.events[i].at("state").get<std::string>() == "tour/visit") last_visit_exit = i;
   }
   ASSERT_GT(last_visit_exit, 10u);
   std::mt19937 rng(20240611);

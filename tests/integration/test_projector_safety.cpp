@@ -26,13 +26,15 @@ class ProjectorSafety : public ::testing::Test {
   fs::path dir_;
   // A visit whose project state ran from 10 s to 12 s.
   std::vector<Json> events_ = {
-      Json::parse(R"({"t": 10.0, "event": "enter", "state": "tour/visit/project", "target": "a"})"),
-      Json::parse(R"({"t": 12.0, "event": "exit", "state": "tour/visit/project", "target": "a"})"),
+      parse_json(R"({"t": 10.0, "event": "enter", "state": "tour/visit/project", "target": "a"})",
+                 "event"),
+      parse_json(R"({"t": 12.0, "event": "exit", "state": "tour/visit/project", "target": "a"})",
+                 "event"),
   };
 };
 
 std::string line(double t_s, const char* event, bool base_moving, bool head_moving) {
-  return std::string("{\"t\": ") + Json(t_s).dump() + ", \"event\": \"" + event +
+  return std::string("{\"t\": ") + json_number_text(t_s) + ", \"event\": \"" + event +
          "\", \"base_moving\": " + (base_moving ? "true" : "false") +
          ", \"head_moving\": " + (head_moving ? "true" : "false") + ", \"target\": \"a\"}\n";
 }

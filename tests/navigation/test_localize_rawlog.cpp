@@ -149,5 +149,34 @@ TEST(LocalizeCommand, BadArgumentsAreInvalidInput) {
   EXPECT_EQ(run_localize_command(static_cast<int>(argv.size()), argv.data()), 2);
 }
 
+// Each mistake is exit 2 naming the option, before the map or rawlog is read.
+TEST(LocalizeCommand, BadNumbersAndRepeatedOptionsNameTheOption) {
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"--seed", "5abc"}, "--seed"},
+      {{"--seed", "1.5"}, "--seed"},
+      {{"--seed", "-1"}, "--seed"},
+      {{"--seed", "18446744073709551616"}, "--seed"},
+      {{"--seed", "1", "--seed", "2"}, "--seed"},
+      {{"--particles", "5x"}, "--particles"},
+      {{"--particles", "0"}, "--particles"},
+      {{"--init", "1,2,nan"}, "--init"},
+      {{"--init", "1,2,3x"}, "--init"},
+      {{"--out", "a.tum", "--out", "b.tum"}, "--out"},
+  };
+  for (const auto& [extra, option] : cases) {
+    std::vector<std::string> args = {"localize", "--map",  kMap,   "--rawlog",
+                                     kRawlog,    "--init", "1,2,3"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    ::testing::internal::CaptureStderr();
+    const int status = run_localize_command(static_cast<int>(argv.size()), argv.data());
+    const std::string err = ::testing::internal::GetCapturedStderr();
+    EXPECT_EQ(status, 2) << extra[1] << ": " << err;
+    EXPECT_NE(err.find("projtour localize: " + option + ": "), std::string::npos)
+        << extra[1] << ": " << err;
+  }
+}
+
 }  // namespace
 }  // namespace projtour

@@ -1,8 +1,12 @@
 // model_io: mesh loading (PLY, OFF), area-weighted sampling and point-cloud normals.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <vector>
 
 #include "projtour/model.hpp"
 #include "sim_test_scenes.hpp"
@@ -106,6 +110,41 @@ TEST(ModelIo, PointCloudPlyGetsOutwardPcaNormals) {
   }
   EXPECT_NEAR(cloud.bounding_radius_m, 0.1f, 1e-3f);
   EXPECT_THROW(load_mesh(temp_file("sphere2.ply", ply)), std::runtime_error);
+}
+
+// A point-only copy of the bunny's surface samples: the estimated normals must follow the mesh's
+// face normals (the ones sample_mesh gives) and come out the same bit for bit on every load.
+TEST(ModelIo, PointCloudBunnyNormalsFollowTheSurfaceAndRepeat) {
+  const ModelCloud truth = sample_mesh(load_mesh(kBunny), 0.003);
+  std::string ply = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(truth.points.size()) +
+                    "\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+  char line[96];
+  for (const auto& p : truth.points) {
+    std::snprintf(line, sizeof line, "%.9g %.9g %.9g\n", p.x(), p.y(), p.z());
+    ply += line;
+  }
+  const auto file = temp_file("bunny_points.ply", ply);
+  const ModelCloud a = load_model_cloud(file, 0.003);
+  const ModelCloud b = load_model_cloud(file, 0.003);
+  ASSERT_EQ(a.points.size(), truth.points.size());
+  EXPECT_EQ(a.normals, b.normals);
+  std::vector<double> angle_deg;
+  for (std::size_t i = 0; i < a.points.size(); ++i) {
+    const double c = std::clamp(static_cast<double>(a.normals[i].dot(truth.normals[i])), -1.0, 1.0);
+    angle_deg.push_back(std::acos(c) * 180.0 / M_PI);
+  }
+  std::sort(angle_deg.begin(), angle_deg.end());
+  const double median = angle_deg[angle_deg.size() / 2];
+  const double within_30 =
+      static_cast<double>(std::lower_bound(angle_deg.begin(), angle_deg.end(), 30.0) -
+                          angle_deg.begin()) /
+      static_cast<double>(angle_deg.size());
+  RecordProperty("median_deg", std::to_string(median));
+  RecordProperty("within_30_deg", std::to_string(within_30));
+  std::printf("bunny point normals: median %.2f deg off the face normal, %.1f%% within 30 deg\n",
+              median, 100.0 * within_30);
+  EXPECT_LT(median, 10.0);
+  EXPECT_GT(within_30, 0.9);
 }
 
 }  // namespace

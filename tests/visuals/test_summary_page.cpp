@@ -10,6 +10,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "projtour_executor/atomic_file.hpp"
 #include "projtour_executor/summary_page.hpp"
 
 namespace projtour {
@@ -24,54 +25,54 @@ void write_png(const fs::path& file, const cv::Scalar& colour) {
 
 Json make_report() {
   Json align = Json::object();
-  align.set("method", "icp_point_to_plane");
-  align.set("time_ms", 45.23);
-  align.set("iterations", 31);
-  align.set("inlier_fraction", 0.9531);
-  align.set("rmse_mm", 1.214);
+  align["method"] = "icp_point_to_plane";
+  align["time_ms"] = 45.23;
+  align["iterations"] = 31;
+  align["inlier_fraction"] = 0.9531;
+  align["rmse_mm"] = 1.214;
   Json loc = Json::object();
-  loc.set("trans_m", 0.0312);
-  loc.set("rot_deg", 0.81);
+  loc["trans_m"] = 0.0312;
+  loc["rot_deg"] = 0.81;
   Json pose_err = Json::object();
-  pose_err.set("trans_mm", 4.12);
-  pose_err.set("rot_deg", 0.33);
+  pose_err["trans_mm"] = 4.12;
+  pose_err["rot_deg"] = 0.33;
   Json mm = Json::object();
-  mm.set("before_align", 25.34);
-  mm.set("after_align", 1.26);
+  mm["before_align"] = 25.34;
+  mm["after_align"] = 1.26;
   Json px = Json::object();
-  px.set("before_align", 31.02);
-  px.set("after_align", 1.54);
+  px["before_align"] = 31.02;
+  px["after_align"] = 1.54;
 
   Json rabbit = Json::object();
-  rabbit.set("id", "rabbit");
-  rabbit.set("outcome", "projected");
-  rabbit.set("retries", 1);
-  rabbit.set("projected_s", 10.0);
-  rabbit.set("align", align);
-  rabbit.set("localization_error", loc);
-  rabbit.set("target_pose_error", pose_err);
-  rabbit.set("projection_error_mm", mm);
-  rabbit.set("projection_error_px", px);
+  rabbit["id"] = "rabbit";
+  rabbit["outcome"] = "projected";
+  rabbit["retries"] = 1;
+  rabbit["projected_s"] = 10.0;
+  rabbit["align"] = align;
+  rabbit["localization_error"] = loc;
+  rabbit["target_pose_error"] = pose_err;
+  rabbit["projection_error_mm"] = mm;
+  rabbit["projection_error_px"] = px;
 
   Json pillar = Json::object();
-  pillar.set("id", "pillar #2");  // needs URL encoding in the picture paths
-  pillar.set("outcome", "skipped");
-  pillar.set("reason", "align: poor_fit after 3 retries <inlier fraction 0.21>");
-  pillar.set("retries", 3);
+  pillar["id"] = "pillar #2";  // needs URL encoding in the picture paths
+  pillar["outcome"] = "skipped";
+  pillar["reason"] = "align: poor_fit after 3 retries <inlier fraction 0.21>";
+  pillar["retries"] = 3;
 
   Json report = Json::object();
-  report.set("mission", "visuals-test");
-  report.set("dry_run", true);
-  report.set("seed", 42);
-  report.set("outcome", "completed_with_skips");
+  report["mission"] = "visuals-test";
+  report["dry_run"] = true;
+  report["seed"] = 42;
+  report["outcome"] = "completed_with_skips";
   Json timing = Json::object();
-  timing.set("wall_s", 12.5);
-  timing.set("mission_s", 187.25);
-  report.set("timing", timing);
+  timing["wall_s"] = 12.5;
+  timing["mission_s"] = 187.25;
+  report["timing"] = timing;
   Json targets = Json::array();
   targets.push_back(rabbit);
   targets.push_back(pillar);
-  report.set("targets", targets);
+  report["targets"] = targets;
   return report;
 }
 
@@ -85,7 +86,7 @@ class SummaryPageTest : public ::testing::Test {
                ("projtour_summary_" + std::to_string(::getpid()) + "_" + info->name());
     fs::remove_all(run_dir_);
     fs::create_directories(run_dir_);
-    write_file_atomically(run_dir_ / "report.json", make_report().dump(2));
+    write_file_atomically(run_dir_ / "report.json", dump_json(make_report(), 2));
     write_png(run_dir_ / "tour.png", {255, 255, 255});
     for (const char* name : {"alignment.png", "projector.png", "before.png", "after.png"}) {
       write_png(run_dir_ / "targets" / "rabbit" / name, {0, 128, 255});
@@ -147,8 +148,8 @@ TEST_F(SummaryPageTest, UnreadableReportNamesTheFile) {
 TEST_F(SummaryPageTest, SparseReportStillRenders) {
   // An aborted run may have no targets and no timing: the page says what it knows.
   Json report = Json::object();
-  report.set("mission", "aborted-run");
-  report.set("outcome", "aborted");
+  report["mission"] = "aborted-run";
+  report["outcome"] = "aborted";
   fs::remove(run_dir_ / "tour.png");
   const std::string html = render_summary_page(SummaryInput{report}, run_dir_);
   EXPECT_TRUE(contains(html, "aborted-run"));

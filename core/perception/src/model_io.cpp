@@ -1,27 +1,24 @@
 // Target models: mesh loading (PLY via PCL, OFF by hand), area-weighted surface sampling and
-// normals for point-cloud models.
-//
-// Normals of point clouds are estimated here with a small voxel-hash neighbour search and a PCA
-// rather than pcl::NormalEstimation: core links only PCL common+io, and pulling in
-// features/search/kdtree for one fit is not worth the link surface.
+// normals for point-cloud models (pcl::NormalEstimation over a kd-tree).
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/PolygonMesh.h>
 #include <pcl/conversions.h>
+#include <pcl/features/normal_3d.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 #include <pcl/point_types.h>
+#include <pcl/search/kdtree.h>
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <fstream>
+#include <memory>
 #include <numeric>
 #include <random>
 #include <sstream>
 #include <stdexcept>
 #include <string>
-#include <unordered_map>
 
 #include "projtour/model.hpp"
 
@@ -160,89 +157,37 @@ float bounding_radius(const std::vector<Eigen::Vector3f>& points) {
   return std::sqrt(r2);
 }
 
-// Neighbour search over a hashed voxel grid: good enough for the few thousand to few hundred
-// thousand points of a target model.
-class VoxelHash {
- public:
-  VoxelHash(const std::vector<Eigen::Vector3f>& points, float cell_m)
-      : points_(points), inv_cell_(1.0f / cell_m) {
-    for (std::size_t i = 0; i < points.size(); ++i) cells_[key(cell_of(points[i]))].push_back(i);
-  }
-
-  // Up to k nearest neighbours (the point itself included) within `reach` cells.
-  void nearest(const Eigen::Vector3f& q, std::size_t k, int reach,
-               std::vector<std::pair<float, std::size_t>>& out) const {
-    out.clear();
-    const Eigen::Vector3i c = cell_of(q);
-    for (int dz = -reach; dz <= reach; ++dz) {
-      for (int dy = -reach; dy <= reach; ++dy) {
-        for (int dx = -reach; dx <= reach; ++dx) {
-          const auto it = cells_.find(key(c + Eigen::Vector3i(dx, dy, dz)));
-          if (it == cells_.end()) continue;
-          for (std::size_t i : it->second) out.emplace_back((points_[i] - q).squaredNorm(), i);
-        }
-      }
-    }
-    if (out.size() > k) {
-      std::nth_element(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(k), out.end());
-      out.resize(k);
-    }
-  }
-
- private:
-  Eigen::Vector3i cell_of(const Eigen::Vector3f& p) const {
-    return (p * inv_cell_).array().floor().cast<int>();
-  }
-  static std::uint64_t key(const Eigen::Vector3i& c) {
-    const auto u = [](int v) {
-      return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v)) & 0x1FFFFF;
-    };
-    return u(c.x()) | (u(c.y()) << 21) | (u(c.z()) << 42);
-  }
-
-  const std::vector<Eigen::Vector3f>& points_;
-  float inv_cell_;
-  std::unordered_map<std::uint64_t, std::vector<std::size_t>> cells_;
-};
-
 // PCA normals over the k nearest neighbours, oriented away from the centroid (target models are
-// roughly star-shaped about their origin, and the robot only ever sees their outside).
+// roughly star-shaped about their origin, and the robot only ever sees their outside). The
+// single-threaded estimator and a FLANN kd-tree give the same normals bit for bit on every run;
+// NormalEstimationOMP would too only with one thread, so it buys nothing here.
 std::vector<Eigen::Vector3f> estimate_normals(const std::vector<Eigen::Vector3f>& points) {
-  constexpr std::size_t kNeighbours = 16;
+  // 16 neighbours span a few sample spacings on any density: enough to average out sampling
+  // noise, few enough to stay on one side of the thin parts (ears, sign edges).
+  constexpr int kNeighbours = 16;
   std::vector<Eigen::Vector3f> normals(points.size(), Eigen::Vector3f::UnitZ());
   if (points.size() < 3) return normals;
-  Eigen::Vector3f lo = points[0], hi = points[0];
+  auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  cloud->reserve(points.size());
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   for (const auto& p : points) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
+    cloud->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
     centroid += p.cast<double>();
   }
   centroid /= static_cast<double>(points.size());
-  // A surface of extent L sampled by N points has spacing about L / sqrt(N); cells of a few
-  // spacings hold roughly k points in their 3x3x3 neighbourhood.
-  const float extent = std::max((hi - lo).norm(), 1e-6f);
-  const float cell_m =
-      std::max(2.0f * extent / std::sqrt(static_cast<float>(points.size())), 1e-6f);
-  const VoxelHash grid(points, cell_m);
-  std::vector<std::pair<float, std::size_t>> found;
+  pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> estimator;
+  estimator.setInputCloud(cloud);
+  estimator.setSearchMethod(std::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
+  estimator.setKSearch(std::min<int>(kNeighbours, static_cast<int>(points.size())));
+  pcl::PointCloud<pcl::Normal> estimated;
+  estimator.compute(estimated);
   for (std::size_t i = 0; i < points.size(); ++i) {
-    int reach = 1;
-    grid.nearest(points[i], kNeighbours, reach, found);
-    while (found.size() < 5 && reach < 4) grid.nearest(points[i], kNeighbours, ++reach, found);
-    if (found.size() < 3) continue;
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (const auto& f : found) mean += points[f.second].cast<double>();
-    mean /= static_cast<double>(found.size());
-    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-    for (const auto& f : found) {
-      const Eigen::Vector3d d = points[f.second].cast<double>() - mean;
-      cov += d * d.transpose();
-    }
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-    Eigen::Vector3d n = eig.eigenvectors().col(0);
-    if (n.dot(points[i].cast<double>() - centroid) < 0.0) n = -n;
-    normals[i] = n.normalized().cast<float>();
+    const pcl::Normal& e = estimated[i];
+    Eigen::Vector3f n(e.normal_x, e.normal_y, e.normal_z);
+    // Degenerate neighbourhoods (all points on a line) come back as NaN: keep the default.
+    if (!n.allFinite() || n.squaredNorm() == 0.0f) continue;
+    if (n.cast<double>().dot(points[i].cast<double>() - centroid) < 0.0) n = -n;
+    normals[i] = n.normalized();
   }
   return normals;
 }

@@ -5,7 +5,8 @@
 #include <optional>
 #include <string>
 
-#include "projtour_executor/json.hpp"
+#include "projtour_executor/json_io.hpp"
+#include "projtour_executor/target_record.hpp"
 
 namespace projtour {
 
@@ -20,23 +21,10 @@ struct ExecutorEvent {
   std::string outcome;  // outcome and transition events
   std::string message;  // outcome events: why
   std::string to;       // transition events: a state path or skip_target/finish/abort
-
-  // The events.jsonl line (without the newline).
-  Json to_json() const;
 };
 
-// One target's entry of report.json and checkpoint.json.
-struct TargetRecord {
-  std::size_t index = 0;
-  std::string id;
-  std::string outcome;  // projected | skipped | failed
-  std::string reason;   // empty when projected
-  int retries = 0;
-  Json measurements = Json::object();  // projected_s, align, *_error as measured
-
-  Json to_json() const;
-  static TargetRecord from_json(const Json& json, std::size_t index);
-};
+// The events.jsonl line is dump_json of this.
+void to_json(Json& j, const ExecutorEvent& event);
 
 class ExecutorObserver {
  public:

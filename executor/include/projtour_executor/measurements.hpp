@@ -6,12 +6,12 @@
 #include <string>
 
 #include "projtour/context.hpp"
-#include "projtour_executor/json.hpp"
+#include "projtour_executor/target_record.hpp"
 
 namespace projtour {
 
-// Adds what `kind`'s exit lets us measure to `measurements` (a JSON object), replacing
-// earlier values of the same visit. Never throws: a failing measurement is logged and left out.
-void measure_on_exit(const std::string& kind, const Context& ctx, Json& measurements);
+// Adds what `kind`'s exit lets us measure to `measurements`, replacing earlier values of the
+// same visit. Never throws: a failing measurement is logged and left out.
+void measure_on_exit(const std::string& kind, const Context& ctx, TargetMeasurements& measurements);
 
 }  // namespace projtour

@@ -10,7 +10,8 @@
 #include "projtour/mission.hpp"
 #include "projtour_executor/events.hpp"
 #include "projtour_executor/executor.hpp"
-#include "projtour_executor/json.hpp"
+#include "projtour_executor/json_io.hpp"
+#include "projtour_executor/target_record.hpp"
 
 namespace projtour {
 
@@ -22,7 +23,7 @@ struct RunSummary {
   double wall_s = 0.0;
   double mission_s = 0.0;
   std::vector<TargetRecord> targets;  // any order; written in mission order
-  std::string reason;  // why an aborted tour ended; written only when not empty
+  std::string reason;                 // why an aborted tour ended; written only when not empty
   std::vector<std::string> ignored_cancel;  // behaviours stopped by force; written when any
 };
 
@@ -38,8 +39,9 @@ struct Checkpoint {
 };
 
 Json checkpoint_to_json(const Checkpoint& checkpoint);
-// Throws std::runtime_error naming the file: unreadable, malformed, another mission, or a
-// target the mission does not have.
+// Parses strictly (json_io.hpp) and reads the done records through from_json. Throws
+// std::runtime_error naming the file: unreadable, malformed (with the byte offset), a field
+// missing or of the wrong type, another mission, or a target the mission does not have.
 Checkpoint read_checkpoint(const std::filesystem::path& file, const MissionSpec& mission);
 
 // The per-target table printed at the end of a run.

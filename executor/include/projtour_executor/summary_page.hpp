@@ -3,7 +3,7 @@
 // figures, tour.png and each target's pictures, linked by paths relative to the run directory.
 #include <filesystem>
 
-#include "projtour_executor/json.hpp"
+#include "projtour_executor/json_io.hpp"
 
 namespace projtour {
 
@@ -11,8 +11,8 @@ struct SummaryInput {
   Json report;  // report.json as build_report() makes it (DESIGN.md); missing fields show "-"
 };
 
-// Reads run_dir/report.json. Throws std::runtime_error naming the file when it is unreadable
-// or malformed.
+// Reads run_dir/report.json, parsed strictly (json_io.hpp). Throws std::runtime_error naming
+// the file when it is unreadable or malformed.
 SummaryInput read_summary_input(const std::filesystem::path& run_dir);
 
 // The page as text. Pictures are looked up under run_dir and only those on disk are shown. Each

@@ -1,0 +1,72 @@
+#pragma once
+// One target's entry of report.json and checkpoint.json: its outcome and the figures measured
+// while it was visited (measurements.hpp), written and read back through to_json/from_json.
+#include <cstddef>
+#include <optional>
+#include <string>
+
+#include "projtour_executor/json_io.hpp"
+
+namespace projtour {
+
+struct AlignFigures {
+  std::string method;
+  double time_ms = 0.0;
+  int iterations = 0;
+  double inlier_fraction = 0.0;
+  double rmse_mm = 0.0;
+};
+
+// The localization estimate against the simulator's true base pose, on the floor plane.
+struct LocalizationError {
+  double trans_m = 0.0;
+  double rot_deg = 0.0;
+};
+
+// The aligned camera-to-model pose against the truth.
+struct TargetPoseError {
+  double trans_mm = 0.0;
+  double rot_deg = 0.0;
+};
+
+// Mean error of the content corners on the model, from the guess alone and after alignment;
+// each is absent when the ground truth could not evaluate it.
+struct BeforeAfter {
+  std::optional<double> before_align;
+  std::optional<double> after_align;
+};
+
+// Absent fields were not measured (the *_error ones need the simulator's ground truth).
+struct TargetMeasurements {
+  std::optional<double> projected_s;
+  std::optional<AlignFigures> align;
+  std::optional<LocalizationError> localization_error;
+  std::optional<TargetPoseError> target_pose_error;
+  std::optional<BeforeAfter> projection_error_mm;
+  std::optional<BeforeAfter> projection_error_px;
+};
+
+struct TargetRecord {
+  std::size_t index = 0;  // in the mission; not written, the id is
+  std::string id;
+  std::string outcome;  // projected | skipped | failed
+  std::string reason;   // empty when projected
+  int retries = 0;
+  TargetMeasurements measurements;
+};
+
+// nlohmann's ADL hooks. The from_json ones are strict: every field of its JSON type, no
+// unknown fields, each error a std::runtime_error naming the field.
+void to_json(Json& j, const AlignFigures& a);
+void from_json(const Json& j, AlignFigures& a);
+void to_json(Json& j, const LocalizationError& e);
+void from_json(const Json& j, LocalizationError& e);
+void to_json(Json& j, const TargetPoseError& e);
+void from_json(const Json& j, TargetPoseError& e);
+void to_json(Json& j, const BeforeAfter& e);
+void from_json(const Json& j, BeforeAfter& e);
+// Fields in DESIGN.md's order; `index` is left as it was.
+void to_json(Json& j, const TargetRecord& r);
+void from_json(const Json& j, TargetRecord& r);
+
+}  // namespace projtour

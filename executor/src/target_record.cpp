@@ -1,0 +1,120 @@
+#include "projtour_executor/target_record.hpp"
+
+#include <stdexcept>
+
+namespace projtour {
+
+namespace {
+
+using namespace json_field;
+
+template <typename T>
+void read_optional(const Json& j, const char* key, std::optional<T>& out) {
+  const auto it = j.find(key);
+  if (it == j.end()) return;
+  try {
+    out = it->template get<T>();
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(std::string(key) + ": " + e.what());
+  }
+}
+
+void read_optional_number(const Json& j, const char* key, std::optional<double>& out) {
+  if (j.contains(key)) out = number_at(j, key);
+}
+
+}  // namespace
+
+void to_json(Json& j, const AlignFigures& a) {
+  j = Json::object();
+  j["method"] = a.method;
+  j["time_ms"] = a.time_ms;
+  j["iterations"] = a.iterations;
+  j["inlier_fraction"] = a.inlier_fraction;
+  j["rmse_mm"] = a.rmse_mm;
+}
+
+void from_json(const Json& j, AlignFigures& a) {
+  expect_object(j, "the value");
+  reject_unknown(j, {"method", "time_ms", "iterations", "inlier_fraction", "rmse_mm"});
+  a.method = string_at(j, "method");
+  a.time_ms = number_at(j, "time_ms");
+  a.iterations = int_at(j, "iterations");
+  a.inlier_fraction = number_at(j, "inlier_fraction");
+  a.rmse_mm = number_at(j, "rmse_mm");
+}
+
+void to_json(Json& j, const LocalizationError& e) {
+  j = Json::object();
+  j["trans_m"] = e.trans_m;
+  j["rot_deg"] = e.rot_deg;
+}
+
+void from_json(const Json& j, LocalizationError& e) {
+  expect_object(j, "the value");
+  reject_unknown(j, {"trans_m", "rot_deg"});
+  e.trans_m = number_at(j, "trans_m");
+  e.rot_deg = number_at(j, "rot_deg");
+}
+
+void to_json(Json& j, const TargetPoseError& e) {
+  j = Json::object();
+  j["trans_mm"] = e.trans_mm;
+  j["rot_deg"] = e.rot_deg;
+}
+
+void from_json(const Json& j, TargetPoseError& e) {
+  expect_object(j, "the value");
+  reject_unknown(j, {"trans_mm", "rot_deg"});
+  e.trans_mm = number_at(j, "trans_mm");
+  e.rot_deg = number_at(j, "rot_deg");
+}
+
+void to_json(Json& j, const BeforeAfter& e) {
+  j = Json::object();
+  if (e.before_align) j["before_align"] = *e.before_align;
+  if (e.after_align) j["after_align"] = *e.after_align;
+}
+
+void from_json(const Json& j, BeforeAfter& e) {
+  expect_object(j, "the value");
+  reject_unknown(j, {"before_align", "after_align"});
+  read_optional_number(j, "before_align", e.before_align);
+  read_optional_number(j, "after_align", e.after_align);
+}
+
+void to_json(Json& j, const TargetRecord& r) {
+  j = Json::object();
+  j["id"] = r.id;
+  j["outcome"] = r.outcome;
+  if (!r.reason.empty()) j["reason"] = r.reason;
+  j["retries"] = r.retries;
+  const TargetMeasurements& m = r.measurements;
+  if (m.projected_s) j["projected_s"] = *m.projected_s;
+  if (m.align) j["align"] = *m.align;
+  if (m.localization_error) j["localization_error"] = *m.localization_error;
+  if (m.target_pose_error) j["target_pose_error"] = *m.target_pose_error;
+  if (m.projection_error_mm) j["projection_error_mm"] = *m.projection_error_mm;
+  if (m.projection_error_px) j["projection_error_px"] = *m.projection_error_px;
+}
+
+void from_json(const Json& j, TargetRecord& r) {
+  expect_object(j, "a target record");
+  reject_unknown(
+      j, {"id", "outcome", "reason", "retries", "projected_s", "align", "localization_error",
+          "target_pose_error", "projection_error_mm", "projection_error_px"});
+  r.id = string_at(j, "id");
+  r.outcome = string_at(j, "outcome");
+  r.reason = j.contains("reason") ? string_at(j, "reason") : std::string();
+  r.retries = int_at(j, "retries");
+  TargetMeasurements m;
+  read_optional_number(j, "projected_s", m.projected_s);
+  read_optional(j, "align", m.align);
+  read_optional(j, "localization_error", m.localization_error);
+  read_optional(j, "target_pose_error", m.target_pose_error);
+  read_optional(j, "projection_error_mm", m.projection_error_mm);
+  read_optional(j, "projection_error_px", m.projection_error_px);
+  r.measurements = std::move(m);
+}
+
+}  // namespace projtour

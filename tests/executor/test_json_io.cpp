@@ -1,0 +1,343 @@
+// The JSON projtour writes and reads back: the writer's exact text (outputs stay byte-identical
+// across versions), strict parsing of checkpoint.json and report.json with errors that name the
+// file and the byte, and the target records through to_json/from_json.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <string>
+
+#include "projtour/mission.hpp"
+#include "projtour_executor/atomic_file.hpp"
+#include "projtour_executor/json_io.hpp"
+#include "projtour_executor/report.hpp"
+#include "projtour_executor/summary_page.hpp"
+#include "projtour_executor/target_record.hpp"
+
+namespace projtour {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The message of what `parse_json(text)` throws, or "" when it parses.
+std::string parse_error(const std::string& text) {
+  try {
+    parse_json(text, "in.json");
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(JsonParse, RejectsWhatTheHandWrittenParserAccepted) {
+  for (const char* text : {"1-2-3",
+                           "1.2.3",
+                           "+5",
+                           "01",
+                           "-01",
+                           "1.",
+                           ".5",
+                           "1e",
+                           "[1,]",
+                           "{\"a\":1,}",
+                           "// c\n1",
+                           "NaN",
+                           "Infinity",
+                           "[1] 2",
+                           "\"\\uZZZZ\"",
+                           "\"\\u12\"",
+                           "\"\\ud800\"",
+                           "\"\\udc00\"",
+                           "\"\\ud800\\u0041\"",
+                           "\"\\x\"",
+                           "\"a\tb\"",
+                           "\"\xff\"",
+                           "\"\xc3\"",
+                           "tru",
+                           ""}) {
+    const std::string error = parse_error(text);
+    EXPECT_EQ(error.rfind("in.json: malformed JSON at byte ", 0), 0u) << text << " -> " << error;
+  }
+}
+
+TEST(JsonParse, NamesTheByteOfTheError) {
+  EXPECT_EQ(parse_error("1-2-3").rfind("in.json: malformed JSON at byte 3: ", 0), 0u)
+      << parse_error("1-2-3");
+  EXPECT_NE(parse_error("{\n  \"a\": 01\n}").find("line 2"), std::string::npos);
+}
+
+TEST(JsonParse, RejectsDuplicateKeysAtTheirByte) {
+  // The second "a" closes at byte 12 (counting from 1).
+  EXPECT_EQ(parse_error(R"({"a": 1, "a": 2})"),
+            "in.json: malformed JSON at byte 12: duplicate key \"a\"");
+  EXPECT_NE(parse_error(R"({"x": [{"id": 1, "b": {"c": 1, "c": 1}}]})").find("duplicate key \"c\""),
+            std::string::npos);
+  // The same key in different objects is fine.
+  EXPECT_EQ(parse_error(R"({"a": {"a": 1}, "b": [{"a": 1}, {"a": 2}], "c": {}})"), "");
+}
+
+TEST(JsonParse, AcceptsStrictJson) {
+  const Json j = parse_json(
+      R"({"u": 18446744073709551615, "i": -9223372036854775808, "d": 1e-07, "s": "\ud83d\ude00\u00e9\n",
+          "n": null, "b": [true, false, 0, -0.0, 1E+2]})",
+      "in.json");
+  EXPECT_EQ(j.at("u").get<std::uint64_t>(), std::numeric_limits<std::uint64_t>::max());
+  EXPECT_EQ(j.at("i").get<std::int64_t>(), std::numeric_limits<std::int64_t>::min());
+  EXPECT_EQ(j.at("d").get<double>(), 1e-7);
+  EXPECT_EQ(j.at("s").get<std::string>(), "\xF0\x9F\x98\x80\xC3\xA9\n");  // valid UTF-8
+  EXPECT_EQ(j.at("b").size(), 5u);
+}
+
+TEST(JsonDump, WritesTheTextProjtourAlwaysWrote) {
+  EXPECT_EQ(dump_json(Json(std::numeric_limits<std::uint64_t>::max())), "18446744073709551615");
+  EXPECT_EQ(dump_json(Json(std::numeric_limits<std::int64_t>::min())), "-9223372036854775808");
+  // Shortest round-trip doubles, ".0" on whole ones, and no JSON for non-finite values.
+  const std::pair<double, const char*> doubles[] = {
+      {0.1, "0.1"},
+      {1e-7, "1e-07"},
+      {195.75, "195.75"},
+      {3.0, "3.0"},
+      {0.0001, "1e-04"},
+      {1e14, "1e+14"},
+      {123456.0, "123456.0"},
+      {-0.0, "-0.0"},
+      {0.30000000000000004, "0.30000000000000004"},
+      {2.5e-5, "2.5e-05"},
+      {std::nan(""), "null"},
+      {std::numeric_limits<double>::infinity(), "null"}};
+  for (const auto& [value, text] : doubles) EXPECT_EQ(dump_json(Json(value)), text) << text;
+  EXPECT_EQ(json_number_text(1.5), "1.5");
+
+  Json j = Json::object();
+  j["t"] = 0.0;
+  j["s"] = "q\"b\\s\n\t\r\x01\b/é";
+  j["a"] = Json::array({1, 2});
+  j["o"] = Json::object();
+  j["e"] = Json::array();
+  j["n"] = nullptr;
+  EXPECT_EQ(
+      dump_json(j),
+      R"({"t": 0.0, "s": "q\"b\\s\n\t\r\u0001\u0008/é", "a": [1, 2], "o": {}, "e": [], "n": null})");
+  EXPECT_EQ(
+      dump_json(j, 2),
+      "{\n  \"t\": 0.0,\n  \"s\": \"q\\\"b\\\\s\\n\\t\\r\\u0001\\u0008/é\",\n  \"a\": [\n    1,\n"
+      "    2\n  ],\n  \"o\": {},\n  \"e\": [],\n  \"n\": null\n}");
+}
+
+TEST(JsonDump, ParseThenDumpGivesTheSameText) {
+  const std::string text = R"({
+  "mission": "demo-tour",
+  "dry_run": true,
+  "seed": 18446744073709551615,
+  "timing": {
+    "wall_s": 3.587429007,
+    "mission_s": 195.75
+  },
+  "targets": [
+    {
+      "id": "rabbit",
+      "outcome": "projected",
+      "retries": 0,
+      "projected_s": 8.0,
+      "align": {
+        "method": "projective_icp",
+        "time_ms": 1.2207,
+        "iterations": 19,
+        "inlier_fraction": 0.755750273822563,
+        "rmse_mm": 1.2825235013211473
+      }
+    }
+  ]
+})";
+  EXPECT_EQ(dump_json(parse_json(text, "report.json"), 2), text);
+}
+
+TargetRecord full_record() {
+  TargetRecord r;
+  r.id = "rabbit";
+  r.outcome = "projected";
+  r.retries = 2;
+  r.measurements.projected_s = 8.0;
+  r.measurements.align = AlignFigures{"projective_icp", 1.25, 19, 0.75, 1.5};
+  r.measurements.localization_error = LocalizationError{0.01, 0.02};
+  r.measurements.target_pose_error = TargetPoseError{0.5, 0.25};
+  r.measurements.projection_error_mm = BeforeAfter{7.0, 2.0};
+  r.measurements.projection_error_px = BeforeAfter{std::nullopt, 3.0};
+  return r;
+}
+
+TEST(TargetRecordJson, WritesDesignOrderAndReadsBack) {
+  const TargetRecord r = full_record();
+  const std::string text = dump_json(Json(r));
+  EXPECT_EQ(text,
+            R"({"id": "rabbit", "outcome": "projected", "retries": 2, "projected_s": 8.0, )"
+            R"("align": {"method": "projective_icp", "time_ms": 1.25, "iterations": 19, )"
+            R"("inlier_fraction": 0.75, "rmse_mm": 1.5}, "localization_error": {"trans_m": 0.01, )"
+            R"("rot_deg": 0.02}, "target_pose_error": {"trans_mm": 0.5, "rot_deg": 0.25}, )"
+            R"("projection_error_mm": {"before_align": 7.0, "after_align": 2.0}, )"
+            R"("projection_error_px": {"after_align": 3.0}})");
+  const TargetRecord back = parse_json(text, "record").get<TargetRecord>();
+  EXPECT_EQ(dump_json(Json(back)), text);
+  ASSERT_TRUE(back.measurements.align.has_value());
+  EXPECT_EQ(back.measurements.align->iterations, 19);
+  EXPECT_FALSE(back.measurements.projection_error_px->before_align.has_value());
+}
+
+TEST(TargetRecordJson, RejectsFieldsOfTheWrongTypeOrUnknown) {
+  const auto error = [](const std::string& text) -> std::string {
+    try {
+      parse_json(text, "record").get<TargetRecord>();
+    } catch (const std::runtime_error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  const std::string head = R"({"id": "a", "outcome": "projected", )";
+  EXPECT_EQ(error(head + R"("retries": 0})"), "");
+  EXPECT_EQ(error(head + R"("retries": 1.5})"), "\"retries\" is not an integer");
+  EXPECT_EQ(error(head + R"("retries": "1"})"), "\"retries\" is not an integer");
+  EXPECT_EQ(error(head + R"("retries": 99999999999})"), "\"retries\" is out of range");
+  EXPECT_EQ(error(R"({"outcome": "projected", "retries": 0})"), "\"id\" is missing");
+  EXPECT_EQ(error(head + R"("retries": 0, "colour": 1})"), "unknown field \"colour\"");
+  EXPECT_EQ(error(head + R"("retries": 0, "projected_s": "8"})"),
+            "\"projected_s\" is not a number but string");
+  EXPECT_EQ(error(head + R"("retries": 0, "align": {"method": "x", "time_ms": 1, )"
+                         R"("iterations": 2.5, "inlier_fraction": 1, "rmse_mm": 1}})"),
+            "align: \"iterations\" is not an integer");
+  EXPECT_EQ(error(head + R"("retries": 0, "projection_error_mm": {"after": 1}})"),
+            "projection_error_mm: unknown field \"after\"");
+  EXPECT_EQ(error(head + R"("retries": 0, "localization_error": [1, 2]})"),
+            "localization_error: the value is not an object but array");
+}
+
+class CheckpointFile : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("projtour_json_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    mission_.name = "m";
+    mission_.targets.resize(2);
+    mission_.targets[0].id = "rabbit";
+    mission_.targets[1].id = "sign";
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+  fs::path write(const std::string& text) {
+    const fs::path file = dir_ / "checkpoint.json";
+    std::ofstream(file, std::ios::binary) << text;
+    return file;
+  }
+  // The message read_checkpoint throws for `text`, or "" when it reads.
+  std::string error(const std::string& text) {
+    try {
+      read_checkpoint(write(text), mission_);
+    } catch (const std::runtime_error& e) {
+      return e.what();
+    }
+    return "";
+  }
+
+  fs::path dir_;
+  MissionSpec mission_;
+};
+
+TEST_F(CheckpointFile, RoundTripsThroughTheRecords) {
+  Checkpoint c;
+  c.mission = "m";
+  c.seed = std::numeric_limits<std::uint64_t>::max();
+  c.mission_s = 42.5;
+  TargetRecord r = full_record();
+  r.index = 0;
+  c.done.push_back(r);
+  c.current_target = "sign";
+  const std::string text = dump_json(checkpoint_to_json(c), 2);
+  EXPECT_NE(text.find("\"seed\": 18446744073709551615,"), std::string::npos) << text;
+  const Checkpoint back = read_checkpoint(write(text), mission_);
+  EXPECT_EQ(back.seed, c.seed);
+  EXPECT_EQ(back.mission_s, 42.5);
+  ASSERT_EQ(back.done.size(), 1u);
+  EXPECT_EQ(back.done[0].index, 0u);
+  EXPECT_EQ(dump_json(Json(back.done[0])), dump_json(Json(r)));
+  EXPECT_EQ(back.current_target, std::optional<std::string>("sign"));
+  EXPECT_EQ(dump_json(checkpoint_to_json(back), 2), text);
+}
+
+TEST_F(CheckpointFile, MalformedTextNamesTheFileAndByte) {
+  const std::string file = (dir_ / "checkpoint.json").string();
+  EXPECT_EQ(
+      error(R"({"mission": "m", "seed": 01})").rfind(file + ": malformed JSON at byte 27: ", 0), 0u)
+      << error(R"({"mission": "m", "seed": 01})");
+  EXPECT_EQ(error(R"({"mission": "m", "mission": "m"})"),
+            file + ": malformed JSON at byte 26: duplicate key \"mission\"");
+  EXPECT_EQ(
+      error(R"({"mission": "m", "seed": 1, "mission_s": 0.0, "done": [{"id": "rabbit", )"
+            R"("outcome": "projected", "retries": 0, "retries": 1}], "current_target": null})")
+          .rfind(file + ": malformed JSON at byte ", 0),
+      0u);
+}
+
+TEST_F(CheckpointFile, FieldsMustHaveTheirTypes) {
+  const std::string file = (dir_ / "checkpoint.json").string();
+  const auto checkpoint = [](const std::string& seed, const std::string& done) {
+    return R"({"mission": "m", "seed": )" + seed + R"(, "mission_s": 1.0, "done": [)" + done +
+           R"(], "current_target": null})";
+  };
+  EXPECT_EQ(error(checkpoint("7", "")), "");
+  EXPECT_EQ(error(checkpoint("-1", "")), file + ": \"seed\" is not an unsigned integer");
+  EXPECT_EQ(error(checkpoint("1.5", "")), file + ": \"seed\" is not an unsigned integer");
+  EXPECT_EQ(error(checkpoint("\"1\"", "")), file + ": \"seed\" is not an unsigned integer");
+  EXPECT_EQ(error(checkpoint("1", R"({"id": "rabbit", "outcome": "projected", "retries": -0.5})")),
+            file + ": done[0]: \"retries\" is not an integer");
+  EXPECT_EQ(error(checkpoint("1", R"({"id": "fox", "outcome": "projected", "retries": 0})")),
+            file + ": done[0]: target \"fox\" is not in the mission");
+  EXPECT_EQ(error(R"({"mission": "m", "seed": 1, "mission_s": 1.0, "done": [], )"
+                  R"("current_target": null, "extra": 1})"),
+            file + ": unknown field \"extra\"");
+  EXPECT_EQ(error("[]"), file + ": the checkpoint is not an object but array");
+}
+
+TEST(SummaryInput, MalformedReportNamesTheFileAndByte) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("projtour_json_report_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  write_file_atomically(dir / "report.json", "{\"mission\": \"m\", \"seed\": 1-2-3}\n");
+  try {
+    read_summary_input(dir);
+    ADD_FAILURE() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind(
+                  (dir / "report.json").string() + ": malformed JSON at byte 28: ", 0),
+              0u)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir / "report.json.tmp"));
+  fs::remove_all(dir);
+}
+
+TEST(AtomicFile, ReplacesTheFileAndNamesItOnFailure) {
+  const fs::path file =
+      fs::temp_directory_path() / ("projtour_atomic_" + std::to_string(::getpid()) + ".txt");
+  write_file_atomically(file, "one");
+  write_file_atomically(file, "two");
+  std::ifstream in(file);
+  EXPECT_EQ(std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()),
+            "two");
+  EXPECT_FALSE(fs::exists(file.string() + ".tmp"));
+  fs::remove(file);
+  try {
+    write_file_atomically("/nonexistent/dir/x.json", "x");
+    ADD_FAILURE() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/x.json"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace projtour
