@@ -12,12 +12,14 @@ bool kind_declares_outcome(const KindInfo& kind, const std::string& outcome) {
 }
 
 void InProcessCatalog::add(const std::string& kind, std::vector<std::string> outcomes,
-                           std::vector<ParamSpec> params, Factory factory, Validator validator) {
+                           std::vector<ParamSpec> params, Factory factory, Validator validator,
+                           std::vector<KeyUse> keys) {
   Entry entry;
   entry.info.name = kind;
   entry.info.family = Family::behaviour;
   entry.info.outcomes = std::move(outcomes);
   entry.info.params = std::move(params);
+  entry.info.keys = std::move(keys);
   entry.info.plugin_name = "in-process";
   entry.factory = std::move(factory);
   entry.validator = std::move(validator);

@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <limits>
 #include <stdexcept>
 
 #include "projtour/blackboard_keys.hpp"
+#include "projtour/occupancy_map.hpp"
 #include "projtour_executor/json_io.hpp"
 #include "projtour_executor/measurements.hpp"
 
@@ -97,16 +99,6 @@ void Executor::restore(std::vector<TargetRecord> done, std::optional<std::size_t
     records_.push_back(std::move(r));
   }
   first_target_ = first_target;
-  publish_done_targets();
-}
-
-// `next` reads which targets are done from the blackboard (it never sees the executor).
-void Executor::publish_done_targets() {
-  if (run_.blackboard == nullptr) return;
-  std::vector<std::string> ids;
-  ids.reserve(records_.size());
-  for (const auto& r : records_) ids.push_back(r.id);
-  run_.blackboard->set(keys::kDoneTargets, std::move(ids));
 }
 
 Context Executor::make_context(const StateSpec* leaf) const {
@@ -164,7 +156,10 @@ bool Executor::start_services() {
 void Executor::start() {
   if (started_) return;
   started_ = true;
-  if (start_services()) enter(machine_.root());
+  if (start_services()) {
+    enter(machine_.root());
+    process_requests();
+  }
 }
 
 void Executor::start_at(const std::string& state_path, std::size_t target_index) {
@@ -188,6 +183,38 @@ void Executor::start_at(const std::string& state_path, std::size_t target_index)
   }
   if (state->for_each_target) first_target_ = target_index;
   enter(*state);
+  process_requests();
+}
+
+void Executor::request_enter(const StateSpec& state) {
+  requests_.push_back(Request{&state, std::nullopt});
+}
+
+void Executor::request_leaf_end(Outcome outcome) {
+  requests_.push_back(Request{nullptr, std::move(outcome)});
+}
+
+// Transitions run one request at a time from a queue, so a chain of states that end at once
+// (every start throwing, say) is a bounded loop here rather than a recursion.
+void Executor::process_requests() {
+  std::size_t processed = 0;
+  while (!requests_.empty() && !finished_) {
+    if (++processed > kMaxTransitionsPerTick) {
+      const std::string where = active_.empty() ? machine_.root().path : active_.back()->path;
+      requests_.clear();
+      abort_tour(where + ": more than " + std::to_string(kMaxTransitionsPerTick) +
+                 " transitions without a tick (a loop of states that end at once)");
+      break;
+    }
+    Request request = std::move(requests_.front());
+    requests_.pop_front();
+    if (request.enter != nullptr) {
+      enter(*request.enter);
+    } else if (request.leaf_end) {
+      finish_leaf(std::move(*request.leaf_end));
+    }
+  }
+  requests_.clear();
 }
 
 void Executor::enter(const StateSpec& state) {
@@ -219,38 +246,62 @@ void Executor::enter_leaf(const StateSpec& state) {
   leaf_behaviour_ = behaviours_.at(state.path).get();
   leaf_ctx_ = make_context(&state);
   leaf_elapsed_s_ = 0.0;
+  leaf_entry_writes_ = run_.blackboard->writes();
   try {
     leaf_behaviour_->start(leaf_ctx_);
   } catch (const std::exception& e) {
-    finish_leaf(Outcome{kOutcomeFailed, std::string("start failed: ") + e.what()});
+    request_leaf_end(Outcome{kOutcomeFailed, std::string("start failed: ") + e.what()});
   }
 }
 
-std::optional<std::size_t> Executor::choose_next_target() {
+std::optional<std::size_t> Executor::choose_next_target(const StateSpec& for_each) {
   const std::size_t n = target_count();
-  Blackboard& bb = *run_.blackboard;
-  if (bb.has(keys::kNextTargetIndex)) {
-    std::optional<long long> wanted;
-    try {
-      wanted = bb.get<long long>(keys::kNextTargetIndex);
-    } catch (const std::logic_error& e) {
-      if (run_.log != nullptr) run_.log->warning(e.what());
-    }
-    bb.erase(keys::kNextTargetIndex);
-    if (wanted && *wanted >= 0 && static_cast<std::size_t>(*wanted) < n &&
-        done_.count(static_cast<std::size_t>(*wanted)) == 0) {
-      return static_cast<std::size_t>(*wanted);
-    }
-  }
   if (first_target_) {
     const std::size_t first = *first_target_;
     first_target_.reset();
     if (first < n && done_.count(first) == 0) return first;
   }
+  std::vector<std::size_t> remaining;
   for (std::size_t i = 0; i < n; ++i) {
-    if (done_.count(i) == 0) return i;
+    if (done_.count(i) == 0) remaining.push_back(i);
   }
-  return std::nullopt;
+  if (remaining.empty()) return std::nullopt;
+  const std::string& order = for_each.order.empty() ? run_.mission->order : for_each.order;
+  if (order != "nearest") return remaining.front();
+  const PoseEstimate2D* estimate = run_.blackboard->find(keys::kLocalization);
+  if (estimate == nullptr) {
+    if (run_.log != nullptr) {
+      run_.log->warning("order nearest: no localization estimate yet; mission order");
+    }
+    return remaining.front();
+  }
+  return nearest_target(*estimate, remaining);
+}
+
+// The remaining target with the shortest path on the map (grid inflated by the robot's radius)
+// from the estimate to its stand-off pose; ties and targets without a path keep mission order,
+// so navigate reports the unreachable ones. A run without a map ranks by straight line.
+std::size_t Executor::nearest_target(const PoseEstimate2D& estimate,
+                                     const std::vector<std::size_t>& remaining) {
+  const Eigen::Vector2d here(estimate.mean.x_m, estimate.mean.y_m);
+  if (run_.map && !planner_) {
+    planner_ = std::make_unique<PathPlanner>(*run_.map, run_.mission->robot.base.radius_m);
+  }
+  std::size_t chosen = remaining.front();
+  double best_m = std::numeric_limits<double>::infinity();
+  for (std::size_t i : remaining) {
+    const Pose2D goal = standoff_pose(run_.mission->targets[i]);
+    const Eigen::Vector2d to(goal.x_m, goal.y_m);
+    const double length_m =
+        planner_
+            ? planner_->path_length_m(here, to).value_or(std::numeric_limits<double>::infinity())
+            : (to - here).norm();
+    if (length_m < best_m) {
+      best_m = length_m;
+      chosen = i;
+    }
+  }
+  return chosen;
 }
 
 void Executor::open_visit(const StateSpec& for_each, std::size_t index) {
@@ -258,7 +309,7 @@ void Executor::open_visit(const StateSpec& for_each, std::size_t index) {
   visit_state_ = &for_each;
   retries_used_.clear();
   visit_projected_ = false;
-  run_.blackboard->erase_prefix("target.");
+  run_.blackboard->clear_visit();
   record_ = TargetRecord{};
   record_.index = index;
   record_.id = run_.mission->targets[index].id;
@@ -274,13 +325,13 @@ void Executor::open_visit(const StateSpec& for_each, std::size_t index) {
 }
 
 void Executor::begin_visit(const StateSpec& for_each) {
-  const auto next = choose_next_target();
+  const auto next = choose_next_target(for_each);
   if (!next) {
     composite_done(for_each);
     return;
   }
   open_visit(for_each, *next);
-  enter(*for_each.child(for_each.initial));
+  request_enter(*for_each.child(for_each.initial));
 }
 
 // Stops the active leaf and pops it; measurements of the visit are taken here.
@@ -292,8 +343,8 @@ void Executor::leave_leaf(const Outcome& outcome) {
   } catch (const std::exception& e) {
     if (run_.log != nullptr) run_.log->warning(leaf->path + ": stop failed: " + e.what());
   }
-  if (current_target_) measure_on_exit(leaf->behaviour, leaf_ctx_, record_.measurements);
-  if (leaf->behaviour == "project" && outcome.name == "succeeded") visit_projected_ = true;
+  if (current_target_) measure_step_results(leaf_ctx_, leaf_entry_writes_, record_.measurements);
+  if (!leaf->projected_on.empty() && outcome.name == leaf->projected_on) visit_projected_ = true;
   emit(EventType::exit, *leaf);
   active_.pop_back();
   leaf_behaviour_ = nullptr;
@@ -344,15 +395,9 @@ void Executor::follow(const StateSpec& from, const TransitionSpec& transition,
     why = "retries exhausted (" + names + ") after " + reason;
   }
   ++transition_count_;
-  // Transitions that never reach a tick (every start throwing, say) would recurse forever.
-  if (++transitions_this_tick_ > kMaxTransitionsPerTick) {
-    abort_tour(from.path + ": more than " + std::to_string(kMaxTransitionsPerTick) +
-               " transitions without a tick (a loop of states that end at once)");
-    return;
-  }
   emit(EventType::transition, from, transition.outcome, "", next != nullptr ? next->path : chosen);
   if (next != nullptr) {
-    enter(*next);
+    request_enter(*next);
   } else if (chosen == kSkipTarget) {
     end_visit("skipped", why);
   } else if (chosen == kAbort) {
@@ -407,7 +452,6 @@ void Executor::close_visit(const std::string& outcome, const std::string& reason
   record_.retries = retries_taken();
   records_.push_back(record_);
   done_.insert(record_.index);
-  publish_done_targets();
   active_.pop_back();
   emit(EventType::exit, *for_each);
   current_target_.reset();
@@ -465,7 +509,6 @@ bool Executor::step() {
   // Set, not accumulated, so mission time has no drift from summing tick_s.
   ++ticks_;
   clock_.set(start_s_ + static_cast<double>(ticks_) * options_.tick_s);
-  transitions_this_tick_ = 0;
   const double now_s = clock_.now_s();
   driver_failure_.clear();
   if (run_.drivers != nullptr) {
@@ -528,7 +571,8 @@ bool Executor::step() {
     if (outcome->name == kOutcomeCancelled) {
       outcome = Outcome{kOutcomeFailed, "returned \"cancelled\" without a cancel request"};
     }
-    finish_leaf(std::move(*outcome));
+    request_leaf_end(std::move(*outcome));
+    process_requests();
   }
   return !finished_;
 }

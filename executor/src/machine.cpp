@@ -143,11 +143,19 @@ class MachineReader {
     }
     if (has_behaviour) {
       state.type = StateType::leaf;
-      field.check_keys({"behaviour", "params", "timeout_s", "retries", "on", "description"});
+      field.check_keys(
+          {"behaviour", "params", "timeout_s", "retries", "on", "projected_on", "description"});
       read_leaf(field, state);
     } else {
       state.type = StateType::composite;
-      field.check_keys({"initial", "states", "for_each", "on", "description"});
+      field.check_keys({"initial", "states", "for_each", "order", "on", "description"});
+      if (field["order"].defined()) {
+        if (!field["for_each"].defined()) {
+          field["order"].error("order: belongs to a for_each: target state");
+        } else if (auto order = field["order"].as_enum({"mission", "nearest"})) {
+          state.order = *order;
+        }
+      }
       if (field["for_each"].defined()) {
         if (field["for_each"].as_enum({"target"})) state.for_each_target = true;
         for (const StateSpec* p = state.parent; p != nullptr; p = p->parent) {
@@ -192,6 +200,15 @@ class MachineReader {
       return;
     }
     if (kind == nullptr) return;
+    const YamlField projected_on = field["projected_on"];
+    if (auto outcome = projected_on.as_string(false)) {
+      if (!kind->declares_outcome(*outcome)) {
+        projected_on.error("behaviour \"" + state.behaviour + "\" does not declare outcome \"" +
+                           *outcome + "\" (it declares: " + join(kind->outcomes) + ")");
+      } else {
+        state.projected_on = *outcome;
+      }
+    }
     const YamlField params = field["params"];
     const std::size_t errors_before = diag_.error_count();
     state.params = read_params(kind->params, params);

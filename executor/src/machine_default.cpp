@@ -8,7 +8,7 @@ const std::string& default_machine_yaml() {
 initial: visit
 states:
   visit:
-    for_each: target
+    for_each: target        # order: mission | nearest (default: the mission's order)
     initial: navigate
     states:
       navigate:
@@ -50,6 +50,7 @@ states:
           failed: skip_target
       project:
         behaviour: project
+        projected_on: succeeded   # the visit counts as shown once project succeeds
         on:
           succeeded: next
           off_screen: skip_target
@@ -58,7 +59,6 @@ states:
         behaviour: next
         on:
           succeeded: finish
-          finished: finish
           failed: skip_target
     on:
       done: done

@@ -28,16 +28,40 @@ const StateSpec& entry_leaf(const StateSpec& s) {
 
 class DotWriter {
  public:
-  std::string write(const Machine& machine) {
+  std::string write(const Machine& machine, const BehaviourCatalog* catalog) {
     out_ << "digraph machine {\n  compound=true;\n  rankdir=LR;\n"
          << "  node [shape=box, style=rounded, fontname=\"Helvetica\"];\n";
     write_state(machine.root(), 1);
     for (const StateSpec* s : machine.states()) write_edges(*s);
+    if (catalog != nullptr) write_data_edges(machine, *catalog);
     out_ << "}\n";
     return out_.str();
   }
 
  private:
+  // Dotted, from each state writing a key to each state reading it; they do not rank the graph.
+  void write_data_edges(const Machine& machine, const BehaviourCatalog& catalog) {
+    const auto keys_of = [&](const StateSpec& leaf) {
+      const KindInfo* kind = catalog.find(leaf.behaviour);
+      return kind != nullptr ? kind->keys : std::vector<KeyUse>{};
+    };
+    for (const StateSpec* reader : machine.leaves()) {
+      for (const KeyUse& read : keys_of(*reader)) {
+        if (read.access == KeyAccess::write) continue;
+        for (const StateSpec* writer : machine.leaves()) {
+          if (writer == reader) continue;
+          for (const KeyUse& w : keys_of(*writer)) {
+            if (w.access != KeyAccess::write || w.name != read.name) continue;
+            out_ << "  " << quoted(writer->path) << " -> " << quoted(reader->path)
+                 << " [label=" << quoted(read.name)
+                 << ", style=dotted, color=steelblue, fontcolor=steelblue, constraint=false"
+                 << (read.access == KeyAccess::read_if_present ? ", arrowhead=odot" : "") << "];\n";
+          }
+        }
+      }
+    }
+  }
+
   void indent(int depth) { out_ << std::string(static_cast<std::size_t>(depth) * 2, ' '); }
 
   void write_state(const StateSpec& s, int depth) {
@@ -107,8 +131,8 @@ class DotWriter {
 
 }  // namespace
 
-std::string machine_to_dot(const Machine& machine) {
-  return DotWriter().write(machine);
+std::string machine_to_dot(const Machine& machine, const BehaviourCatalog* catalog) {
+  return DotWriter().write(machine, catalog);
 }
 
 }  // namespace projtour

@@ -11,10 +11,13 @@ namespace projtour {
 
 namespace {
 
-void measure_navigate(const Context& ctx, GroundTruth* truth, TargetMeasurements& out) {
+// Where the robot believed it was when navigate ended (arrived, or gave up).
+void measure_navigate(const Context& ctx, const NavigateResult& result, GroundTruth* truth,
+                      TargetMeasurements& out) {
   if (truth == nullptr) return;
-  const auto estimate = ctx.blackboard().get<PoseEstimate2D>(keys::kLocalization);
-  if (!estimate) return;
+  const PoseEstimate2D* estimate =
+      result.arrived_at ? &*result.arrived_at : ctx.blackboard().find(keys::kLocalization);
+  if (estimate == nullptr) return;
   // Both on the floor plane: the estimate has no z, roll or pitch.
   const Eigen::Isometry3d T_map_base_true =
       isometry_from_pose2d(pose2d_from_isometry(truth->true_T_map_base()));
@@ -24,31 +27,29 @@ void measure_navigate(const Context& ctx, GroundTruth* truth, TargetMeasurements
                         rad_to_deg(rotation_angle_rad(T_map_base, T_map_base_true))};
 }
 
-void measure_align(const Context& ctx, GroundTruth* truth, TargetMeasurements& out) {
-  const Blackboard& bb = ctx.blackboard();
-  if (const auto quality = bb.get<keys::AlignQuality>(keys::kAlignQuality)) {
-    out.align = AlignFigures{quality->method, quality->time_ms, quality->iterations,
-                             quality->inlier_fraction, quality->rmse_mm};
+void measure_align(const Context& ctx, const AlignResult& result, GroundTruth* truth,
+                   TargetMeasurements& out) {
+  if (const auto& q = result.quality) {
+    out.align = AlignFigures{q->method, q->time_ms, q->iterations, q->inlier_fraction, q->rmse_mm};
   }
-  if (truth == nullptr || ctx.target == nullptr) return;
-  const auto T_camera_model = bb.get<Eigen::Isometry3d>(keys::kTCameraModel);
-  if (!T_camera_model) return;
+  if (truth == nullptr || ctx.target == nullptr || !result.T_camera_model) return;
+  const Eigen::Isometry3d& T_camera_model = *result.T_camera_model;
   const Eigen::Isometry3d T_camera_model_true =
       truth->true_T_map_camera().inverse() * truth->true_T_map_model(ctx.target->id);
   out.target_pose_error =
-      TargetPoseError{1000.0 * translation_distance_m(*T_camera_model, T_camera_model_true),
-                      rad_to_deg(rotation_angle_rad(*T_camera_model, T_camera_model_true))};
+      TargetPoseError{1000.0 * translation_distance_m(T_camera_model, T_camera_model_true),
+                      rad_to_deg(rotation_angle_rad(T_camera_model, T_camera_model_true))};
 }
 
-void measure_project(const Context& ctx, GroundTruth* truth, TargetMeasurements& out) {
-  const Blackboard& bb = ctx.blackboard();
-  if (const auto shown_s = bb.get<double>(keys::kProjectedSeconds)) out.projected_s = *shown_s;
+void measure_project(const Context& ctx, const ProjectResult& result, GroundTruth* truth,
+                     TargetMeasurements& out) {
+  if (result.shown_s) out.projected_s = *result.shown_s;
   if (truth == nullptr || ctx.target == nullptr) return;
-  using Pixels = std::array<Eigen::Vector2d, 4>;
-  const auto before = bb.get<Pixels>(keys::kPixelsBeforeAlign);
-  const auto after = bb.get<Pixels>(keys::kPixelsAfterAlign);
+  const auto& before = result.pixels_before_align;
+  const auto& after = result.pixels_after_align;
   BeforeAfter mm, px;
-  const auto evaluate = [&](const auto& pixels, std::optional<double> BeforeAfter::*field) {
+  const auto evaluate = [&](const std::optional<ProjectorQuad>& pixels,
+                            std::optional<double> BeforeAfter::*field) {
     if (!pixels) return;
     if (const auto error = truth->evaluate_projection(ctx.target->id, *pixels)) {
       mm.*field = error->mean_mm();
@@ -66,21 +67,33 @@ void measure_project(const Context& ctx, GroundTruth* truth, TargetMeasurements&
   }
 }
 
+// The result under `key` when the state now ending wrote it.
+template <typename T>
+const T* written_since(const Blackboard& bb, const Key<T>& key, std::uint64_t since) {
+  return bb.version(key) > since ? bb.find(key) : nullptr;
+}
+
 }  // namespace
 
-void measure_on_exit(const std::string& kind, const Context& ctx,
-                     TargetMeasurements& measurements) {
-  if (kind != "navigate" && kind != "align" && kind != "project") return;
+void measure_step_results(const Context& ctx, std::uint64_t since_writes,
+                          TargetMeasurements& measurements) {
   try {
     GroundTruth* truth = ctx.run->dry_run && ctx.run->drivers != nullptr
                              ? ctx.run->drivers->ground_truth()
                              : nullptr;
-    if (kind == "navigate") measure_navigate(ctx, truth, measurements);
-    if (kind == "align") measure_align(ctx, truth, measurements);
-    if (kind == "project") measure_project(ctx, truth, measurements);
+    const Blackboard& bb = ctx.blackboard();
+    if (const auto* r = written_since(bb, keys::kNavigate, since_writes)) {
+      measure_navigate(ctx, *r, truth, measurements);
+    }
+    if (const auto* r = written_since(bb, keys::kAlign, since_writes)) {
+      measure_align(ctx, *r, truth, measurements);
+    }
+    if (const auto* r = written_since(bb, keys::kProject, since_writes)) {
+      measure_project(ctx, *r, truth, measurements);
+    }
   } catch (const std::exception& e) {
     if (ctx.run->log != nullptr) {
-      ctx.run->log->warning("measuring " + kind + " of " + ctx.state_path + ": " + e.what());
+      ctx.run->log->warning("measuring the results of " + ctx.state_path + ": " + e.what());
     }
   }
 }

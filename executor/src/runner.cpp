@@ -195,14 +195,14 @@ class TourTrace : public ExecutorObserver {
     const double t_s = run_.clock->now_s();
     if (t_s - last_sample_s_ < kSamplePeriodS) return;
     last_sample_s_ = t_s;
-    if (auto estimate = run_.blackboard->get<PoseEstimate2D>(keys::kLocalization)) {
+    if (const PoseEstimate2D* estimate = run_.blackboard->find(keys::kLocalization)) {
       estimated_.push_back(estimate->mean);
     }
     if (GroundTruth* truth = run_.drivers->ground_truth()) {
       true_.push_back(pose2d_from_isometry(truth->true_T_map_base()));
     }
-    if (auto path = run_.blackboard->get<std::vector<Pose2D>>(keys::kPlannedPath)) {
-      visit_path_ = std::move(*path);
+    if (const NavigateResult* navigated = run_.blackboard->find(keys::kNavigate)) {
+      visit_path_ = navigated->planned_path;
     }
   }
   void on_target_done(const TargetRecord&) override {
@@ -275,7 +275,7 @@ int graph_command(const RunOptions& options, std::ostream& out, std::ostream& er
   auto prepared = prepare_run(options, PrepareDepth::machine, diag);
   print_diagnostics(diag, err);
   if (!prepared) return 2;
-  out << machine_to_dot(*prepared->machine);
+  out << machine_to_dot(*prepared->machine, prepared->catalog.get());
   return 0;
 }
 

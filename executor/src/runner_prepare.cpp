@@ -129,6 +129,18 @@ std::unique_ptr<PreparedRun> prepare_run(const RunOptions& options, PrepareDepth
       run->services[role] = std::move(*c);
     }
   }
+  // With the services known, every key a state reads must have a writer before it.
+  if (run->machine) {
+    std::vector<KeyUse> service_writes;
+    for (const auto& [role, choice] : run->services) {
+      if (const KindInfo* kind = run->registry->find(choice.kind)) {
+        for (const KeyUse& k : kind->keys) {
+          if (k.access == KeyAccess::write) service_writes.push_back(k);
+        }
+      }
+    }
+    check_machine_data(*run->machine, *run->catalog, service_writes, diag);
+  }
 
   try {
     run->map = load_occupancy_grid(run->mission.map);

@@ -35,11 +35,11 @@ class Aim : public Behaviour {
     reached_at_s_.reset();
     if (ctx.target == nullptr) throw std::runtime_error("aim runs only inside a visit to a target");
     const TargetSpec& target = *ctx.target;
-    const auto estimate = ctx.blackboard().get<PoseEstimate2D>(keys::kLocalization);
+    const PoseEstimate2D* estimate = ctx.blackboard().find(keys::kLocalization);
     if (!estimate) {
       early_ = Outcome{kOutcomeFailed, "target " + target.id +
                                            ": no localization estimate on the blackboard (" +
-                                           keys::kLocalization + "); cannot aim"};
+                                           keys::kLocalization.name + "); cannot aim"};
       return;
     }
     if (!ctx.drivers().pan_tilt) {
@@ -126,9 +126,13 @@ const projtour_param_desc kParams[] = {
     {"aim_at", "string", "model_points",
      "model_points (centroid of the four Model Points) or origin (the model frame's origin)"}};
 const char* const kOutcomes[] = {"succeeded", "out_of_reach"};
-const projtour_kind_desc kKinds[] = {behaviour_kind<Aim>(
-    "aim", "pan-tilt inverse kinematics: projector optical axis onto the target", kParams,
-    kOutcomes, validator<check_params>())};
+const projtour_key_desc kKeys[] = {reads(keys::kLocalization)};
+const projtour_kind_desc kKinds[] = {
+    with_keys(behaviour_kind<Aim>("aim",
+                                  "pan-tilt inverse kinematics: projector optical axis onto the "
+                                  "target",
+                                  kParams, kOutcomes, validator<check_params>()),
+              kKeys)};
 
 }  // namespace
 }  // namespace projtour

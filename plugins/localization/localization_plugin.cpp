@@ -58,7 +58,7 @@ class MrptLocalization : public Service {
     if (last_odometry_) pending_ = pose_compose(pending_, pose_delta(*last_odometry_, odometry));
     last_odometry_ = odometry;
 
-    if (const auto widen_m = board.get<double>(keys::kLocalizationWiden)) {
+    if (const double* widen_m = board.find(keys::kLocalizationWiden)) {
       if (*widen_m > 0.0) localizer_->widen(*widen_m, widen_yaw_rad_);
       board.erase(keys::kLocalizationWiden);
     }
@@ -133,10 +133,16 @@ const projtour_param_desc kParams[] = {
     {"widen_yaw_deg", "number", "30", "heading spread added when asked to widen the cloud"},
 };
 
-const projtour_kind_desc kKinds[] = {projtour::service_kind<MrptLocalization>(
-    "mrpt_localization", "localization",
-    "MRPT Monte Carlo localization: odometry motion model, laser likelihood field on the map",
-    kParams, &validate)};
+const projtour_key_desc kKeys[] = {writes(keys::kLocalization),
+                                   writes(keys::kLocalizationConverged), writes(keys::kLaserScan),
+                                   reads_if_present(keys::kLocalizationWiden)};
+
+const projtour_kind_desc kKinds[] = {with_keys(
+    projtour::service_kind<MrptLocalization>(
+        "mrpt_localization", "localization",
+        "MRPT Monte Carlo localization: odometry motion model, laser likelihood field on the map",
+        kParams, &validate),
+    kKeys)};
 
 }  // namespace
 }  // namespace projtour::localization

@@ -71,6 +71,7 @@ void Navigate::start(Context& ctx) {
   goal_ = standoff_pose(*ctx.target);
   planner_ = std::make_unique<PathPlanner>(*map_planner_);
   path_ = PlannedPath{};
+  result_ = NavigateResult{};
   progress_index_ = 0;
   final_turn_ = false;
   start_s_ = ctx.now_s();
@@ -98,7 +99,8 @@ bool Navigate::replan(Context& ctx, const Pose2D& from) {
     poses.push_back(Pose2D{p.x(), p.y(), std::atan2(d.y(), d.x())});
   }
   if (!poses.empty()) poses.back().yaw_rad = goal_.yaw_rad;
-  ctx.blackboard().set(keys::kPlannedPath, poses);
+  result_.planned_path = std::move(poses);
+  ctx.blackboard().set(keys::kNavigate, result_);
   return true;
 }
 
@@ -120,7 +122,7 @@ double Navigate::remaining_m(const Pose2D& pose) {
 
 std::vector<Eigen::Vector2d> Navigate::obstacles_on_path(Context& ctx, const Pose2D& pose) const {
   std::vector<Eigen::Vector2d> hits;
-  const auto scan = ctx.blackboard().get<LaserScan>(keys::kLaserScan);
+  const LaserScan* scan = ctx.blackboard().find(keys::kLaserScan);
   if (!scan || path_.points_m.empty()) return hits;
   const Eigen::Isometry3d T_map_laser = isometry_from_pose2d(pose) * scan->T_base_laser;
   const InflatedGrid& grid = map_planner_->grid();
@@ -159,8 +161,8 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
     return Outcome{kOutcomeCancelled, "cancelled"};
   }
   const double now_s = ctx.now_s();
-  const auto estimate = ctx.blackboard().get<PoseEstimate2D>(keys::kLocalization);
-  if (!estimate) {
+  const PoseEstimate2D* estimate = ctx.blackboard().find(keys::kLocalization);
+  if (estimate == nullptr) {
     command(ctx, 0, 0);
     return Outcome{kOutcomeFailed, "no localization estimate on the blackboard"};
   }
@@ -172,7 +174,8 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
                                std::to_string(lost_std_m_) + " m"};
   }
   // A tight cloud whose scans no longer fit the map is as lost as a wide one.
-  if (ctx.blackboard().get<bool>(keys::kLocalizationConverged).value_or(true)) {
+  const bool* converged = ctx.blackboard().find(keys::kLocalizationConverged);
+  if (converged == nullptr || *converged) {
     last_converged_s_ = now_s;
   } else if (now_s - last_converged_s_ > lost_unconverged_s_) {
     command(ctx, 0, 0);
@@ -200,6 +203,8 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
   if (final_turn_ && goal_dist_m <= tolerance_m_ &&
       std::abs(yaw_error_rad) <= kAimFraction * tolerance_rad_) {
     command(ctx, 0, 0);
+    result_.arrived_at = *estimate;
+    ctx.blackboard().set(keys::kNavigate, result_);
     return Outcome{"succeeded", ""};
   }
 

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "projtour/behaviour.hpp"
+#include "projtour/blackboard_keys.hpp"
 #include "projtour/path_planner.hpp"
 
 namespace projtour::navigate {
@@ -35,6 +36,7 @@ class Navigate : public Behaviour {
   std::unique_ptr<PathPlanner> planner_;            // plus what the laser saw on this run
   Pose2D goal_;
   PlannedPath path_;
+  NavigateResult result_;
   std::size_t progress_index_ = 0;
   double start_s_ = 0.0;
   double best_remaining_m_ = 0.0;

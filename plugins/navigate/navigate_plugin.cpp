@@ -42,13 +42,25 @@ const projtour_param_desc kRelocalizeParams[] = {
 };
 const char* const kRelocalizeOutcomes[] = {"succeeded", "lost"};
 
+const projtour_key_desc kNavigateKeys[] = {
+    projtour::reads(keys::kLocalization), projtour::reads_if_present(keys::kLocalizationConverged),
+    projtour::reads_if_present(keys::kLaserScan), projtour::writes(keys::kNavigate)};
+const projtour_key_desc kRelocalizeKeys[] = {projtour::reads(keys::kLocalization),
+                                             projtour::reads(keys::kLocalizationConverged),
+                                             projtour::writes(keys::kLocalizationWiden)};
 const projtour_kind_desc kKinds[] = {
-    projtour::behaviour_kind<Navigate>(
-        "navigate", "plan to the target's stand-off pose on the inflated grid and drive there",
-        kNavigateParams, kNavigateOutcomes, projtour::validator<check_navigate_params>()),
-    projtour::behaviour_kind<Relocalize>(
-        "relocalize", "spin in place with a widened particle cloud until localization converges",
-        kRelocalizeParams, kRelocalizeOutcomes),
+    projtour::with_keys(
+        projtour::behaviour_kind<Navigate>(
+            "navigate", "plan to the target's stand-off pose on the inflated grid and drive there",
+            kNavigateParams, kNavigateOutcomes, projtour::validator<check_navigate_params>()),
+        kNavigateKeys),
+    projtour::with_keys(
+        projtour::behaviour_kind<Relocalize>("relocalize",
+                                             "spin in place with a widened "
+                                             "particle cloud until localization "
+                                             "converges",
+                                             kRelocalizeParams, kRelocalizeOutcomes),
+        kRelocalizeKeys),
 };
 
 }  // namespace

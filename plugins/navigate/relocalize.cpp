@@ -28,10 +28,11 @@ std::optional<Outcome> Relocalize::tick(Context& ctx) {
     return Outcome{kOutcomeCancelled, "cancelled"};
   }
   const double now_s = ctx.now_s();
-  const auto estimate = ctx.blackboard().get<PoseEstimate2D>(keys::kLocalization);
+  const PoseEstimate2D* estimate = ctx.blackboard().find(keys::kLocalization);
   const bool widened = !ctx.blackboard().has(keys::kLocalizationWiden);  // the service took it
+  const bool* service_converged = ctx.blackboard().find(keys::kLocalizationConverged);
   const bool converged = widened && estimate && position_std_m(*estimate) < converged_std_m_ &&
-                         ctx.blackboard().get<bool>(keys::kLocalizationConverged).value_or(false);
+                         service_converged != nullptr && *service_converged;
   if (!converged) {
     converged_since_s_ = -1.0;
   } else if (converged_since_s_ < 0.0) {

@@ -60,7 +60,8 @@ class Project : public Behaviour {
     if (early_) return;
     if (track_.enabled) start_tracking(ctx);
     t_start_s_ = ctx.now_s();
-    ctx.blackboard().set<double>(keys::kProjectedSeconds, 0.0);
+    result_.shown_s = 0.0;
+    publish(ctx);
     show_current(ctx, /*force=*/true);
     if (!ctx.target_dir.empty()) {
       const std::filesystem::path file = ctx.target_dir / "projector.png";
@@ -78,7 +79,8 @@ class Project : public Behaviour {
     }
     if (paused_) return std::nullopt;
     const double shown_s = elapsed_s(ctx);
-    ctx.blackboard().set<double>(keys::kProjectedSeconds, std::min(shown_s, dwell_s_));
+    result_.shown_s = std::min(shown_s, dwell_s_);
+    publish(ctx);
     if (shown_s >= dwell_s_) {
       finish(ctx);
       std::ostringstream s;
@@ -123,25 +125,26 @@ class Project : public Behaviour {
     dwell_s_ = dwell_param_s_ >= 0 ? dwell_param_s_ : target.dwell_s;
     if (!ctx.drivers().projector) return Outcome{kOutcomeFailed, who + "no projector driver"};
     if (!ctx.drivers().pan_tilt) return Outcome{kOutcomeFailed, who + "no pan-tilt driver"};
-    const auto T_camera_model = ctx.blackboard().get<Eigen::Isometry3d>(keys::kTCameraModel);
-    if (!T_camera_model) {
+    result_ = ProjectResult{};
+    const AlignResult* aligned = ctx.blackboard().find(keys::kAlign);
+    if (aligned == nullptr || !aligned->T_camera_model) {
       return Outcome{kOutcomeFailed,
-                     who + "no aligned pose on the blackboard (" + keys::kTCameraModel + ")"};
+                     who + "no aligned pose on the blackboard (" + keys::kAlign.name + ")"};
     }
+    const Eigen::Isometry3d& T_camera_model = *aligned->T_camera_model;
     const PinholeModel& projector = ctx.robot().projector.intrinsics;
     warp_q_ = ctx.drivers().pan_tilt->measured();
     const Eigen::Isometry3d T_projector_camera = kinematics_->T_projector_camera(warp_q_);
 
     // Where the content would land from the guess alone: the report's "before alignment".
-    if (const auto guess = ctx.blackboard().get<Eigen::Isometry3d>(keys::kTCameraModelGuess)) {
-      const ProjectedQuad before =
-          project_model_points(target.model_points, T_projector_camera * *guess, projector);
-      if (before.in_front) ctx.blackboard().set<Quad2d>(keys::kPixelsBeforeAlign, before.pixels);
-    }
-    shown_T_projector_model_ = T_projector_camera * *T_camera_model;
+    const ProjectedQuad before = project_model_points(
+        target.model_points, T_projector_camera * aligned->T_camera_model_guess, projector);
+    if (before.in_front) result_.pixels_before_align = before.pixels;
+    shown_T_projector_model_ = T_projector_camera * T_camera_model;
     const ProjectedQuad quad =
         project_model_points(target.model_points, shown_T_projector_model_, projector);
-    if (quad.in_front) ctx.blackboard().set<Quad2d>(keys::kPixelsAfterAlign, quad.pixels);
+    if (quad.in_front) result_.pixels_after_align = quad.pixels;
+    publish(ctx);
     if (!quad.on_screen) return Outcome{"off_screen", who + quad.problem};
 
     const std::string degenerate = quad_problem(quad.ideal_pixels, min_area_px2_);
@@ -173,9 +176,12 @@ class Project : public Behaviour {
       ctx.log().warning(who + "no depth camera driver: projecting without tracking");
       return;
     }
+    const AlignResult* aligned = ctx.blackboard().find(keys::kAlign);
     try {
-      tracker_.start(ctx.target->model,
-                     ctx.blackboard().require<Eigen::Isometry3d>(keys::kTCameraModel));
+      if (aligned == nullptr || !aligned->model || !aligned->T_camera_model) {
+        throw std::runtime_error("align published no model and pose");
+      }
+      tracker_.start(aligned->model, *aligned->T_camera_model);
     } catch (const std::exception& e) {
       ctx.log().warning(who + "cannot track (" + e.what() + "): projecting without tracking");
       return;
@@ -212,7 +218,8 @@ class Project : public Behaviour {
     }
     rejected_in_a_row_ = 0;
     const Eigen::Isometry3d& T_camera_model = tracker_.T_camera_model();
-    ctx.blackboard().set<Eigen::Isometry3d>(keys::kTCameraModel, T_camera_model);
+    result_.T_camera_model_tracked = T_camera_model;
+    publish(ctx);
     // The head stands still while lit: its encoders' noise must not shake the content, so the
     // angles of the last warp stand until the head has really moved (beyond its tolerance).
     const JointAngles q = ctx.drivers().pan_tilt->measured();
@@ -251,13 +258,16 @@ class Project : public Behaviour {
     last_frame_ = warper_->warp(content_->frame_at(elapsed_s(ctx), nullptr));
     ctx.drivers().projector->show(last_frame_);
     shown_T_projector_model_ = T_projector_model;
-    ctx.blackboard().set<Quad2d>(keys::kPixelsAfterAlign, quad.pixels);
+    result_.pixels_after_align = quad.pixels;
+    publish(ctx);
     auto& stats = tracker_.stats();
     ++stats.rewarps;
     stats.rewarp_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started)
             .count());
   }
+
+  void publish(Context& ctx) const { ctx.blackboard().set(keys::kProject, result_); }
 
   double elapsed_s(const Context& ctx) const { return ctx.now_s() - t_start_s_ - paused_total_s_; }
 
@@ -279,7 +289,8 @@ class Project : public Behaviour {
     }
     const double end_s = paused_ ? paused_at_s_ : ctx.now_s();
     const double shown_s = std::min(end_s - t_start_s_ - paused_total_s_, dwell_s_);
-    ctx.blackboard().set<double>(keys::kProjectedSeconds, std::max(0.0, shown_s));
+    result_.shown_s = std::max(0.0, shown_s);
+    publish(ctx);
     ctx.drivers().projector->blank();
   }
 
@@ -298,6 +309,7 @@ class Project : public Behaviour {
   std::unique_ptr<HeadKinematics> kinematics_;
   std::unique_ptr<ContentWarper> warper_;
   std::unique_ptr<ContentSource> content_;
+  ProjectResult result_;
   std::optional<Outcome> early_;
   cv::Mat last_frame_;
   double dwell_s_ = 0.0;
@@ -324,17 +336,19 @@ const projtour_param_desc kParams[] = {
     {"track_threshold_deg", "number", "0.5", "track: ... or the target turns more than this"},
     {"track_min_inlier_fraction", "number", "0.6",
      "track: a frame whose fit has fewer inliers is skipped"},
-    {"track_model_spacing_m", "number", kDefaultModelSpacingM,
-     "track: spacing of the points resampled on the model (align's model_spacing_m)"},
     {"track_crop_margin_m", "number", "0.05",
      "track: each frame is cropped to the model's bounding sphere plus this"},
     {"planarity_warn_mm", "number", "5",
      "warn when the Model Points lie farther than this from a common plane"},
     {"min_area_px2", "number", "100", "smaller projected quadrilaterals count as zero area"}};
 const char* const kOutcomes[] = {"succeeded", "off_screen"};
-const projtour_kind_desc kKinds[] = {behaviour_kind<Project>(
-    "project", "warp the content onto the Model Points and show it for the dwell time", kParams,
-    kOutcomes, validator<check_params>())};
+const projtour_key_desc kKeys[] = {reads(keys::kAlign), writes(keys::kProject)};
+const projtour_kind_desc kKinds[] = {with_keys(
+    behaviour_kind<Project>("project",
+                            "warp the content onto the Model Points and show it for the dwell "
+                            "time",
+                            kParams, kOutcomes, validator<check_params>()),
+    kKeys)};
 
 }  // namespace
 }  // namespace projtour

@@ -14,14 +14,12 @@ TrackSettings read_track_settings(const Params& p) {
   s.threshold_mm = p.number("track_threshold_mm");
   s.threshold_deg = p.number("track_threshold_deg");
   s.min_inlier_fraction = p.number("track_min_inlier_fraction");
-  s.model_spacing_m = p.number("track_model_spacing_m");
   s.crop_margin_m = p.number("track_crop_margin_m");
   if (s.threshold_mm < 0.0) throw std::invalid_argument("track_threshold_mm: must be >= 0");
   if (s.threshold_deg < 0.0) throw std::invalid_argument("track_threshold_deg: must be >= 0");
   if (s.min_inlier_fraction < 0.0 || s.min_inlier_fraction > 1.0) {
     throw std::invalid_argument("track_min_inlier_fraction: must lie in [0, 1]");
   }
-  if (!(s.model_spacing_m > 0.0)) throw std::invalid_argument("track_model_spacing_m: must be > 0");
   if (s.crop_margin_m < 0.0) throw std::invalid_argument("track_crop_margin_m: must be >= 0");
   return s;
 }
@@ -71,14 +69,15 @@ IcpOptions PoseTracker::icp_options() {
 PoseTracker::PoseTracker(const TrackSettings& settings)
     : settings_(settings), options_(icp_options()) {}
 
-void PoseTracker::start(const std::filesystem::path& model_file,
+void PoseTracker::start(const std::shared_ptr<const ModelCloud>& model,
                         const Eigen::Isometry3d& T_camera_model) {
-  std::shared_ptr<const IcpModel>& model = models_[model_file.string()];
-  if (!model) {
-    model =
-        std::make_shared<const IcpModel>(load_model_cloud(model_file, settings_.model_spacing_m));
+  if (!model) throw std::invalid_argument("PoseTracker::start without a model");
+  // IcpModel lays the cloud out as align's does (same seed), so tracking follows the very points
+  // align fitted; it is rebuilt only when align publishes another model.
+  if (model != cloud_) {
+    cloud_ = model;
+    model_ = std::make_shared<const IcpModel>(*model);
   }
-  model_ = model;
   T_camera_model_ = T_camera_model;
   stats_ = {};
 }

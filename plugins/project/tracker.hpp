@@ -21,7 +21,6 @@ struct TrackSettings {
   double threshold_mm = 1.0;   // re-warp when a Model Point moves more (projector frame)
   double threshold_deg = 0.5;  // ... or the target turns more
   double min_inlier_fraction = 0.6;
-  double model_spacing_m = 0.0;  // from the parameters (default kDefaultModelSpacingM)
   double crop_margin_m = 0.05;
 };
 
@@ -51,8 +50,9 @@ class PoseTracker {
  public:
   explicit PoseTracker(const TrackSettings& settings);
 
-  // Loads the target's model (once per model file over the tour) and starts from `T_camera_model`.
-  void start(const std::filesystem::path& model_file, const Eigen::Isometry3d& T_camera_model);
+  // Starts from `T_camera_model` on the model align fitted (its published AlignResult::model).
+  void start(const std::shared_ptr<const ModelCloud>& model,
+             const Eigen::Isometry3d& T_camera_model);
 
   // Aligns `frame` from the current pose; the pose moves only when the fit passes the gate.
   // nullopt for a frame without readings (a dropped frame).
@@ -71,7 +71,7 @@ class PoseTracker {
  private:
   TrackSettings settings_;
   IcpOptions options_;
-  std::map<std::string, std::shared_ptr<const IcpModel>> models_;  // by model file
+  std::shared_ptr<const ModelCloud> cloud_;
   std::shared_ptr<const IcpModel> model_;
   Eigen::Isometry3d T_camera_model_ = Eigen::Isometry3d::Identity();
   TrackStats stats_;

@@ -26,7 +26,7 @@ std::vector<std::string> split_outcomes(const std::string& text) {
 
 }  // namespace
 
-const projtour_param_desc kScriptedParams[7] = {
+const projtour_param_desc kScriptedParams[6] = {
     {"outcomes", "string", "succeeded",
      "comma-separated outcomes of successive runs; the last repeats"},
     {"ticks", "integer", "1", "ticks each run lasts (the outcome comes on the last)"},
@@ -35,8 +35,6 @@ const projtour_param_desc kScriptedParams[7] = {
     {"block_on", "integer", "0",
      "run number whose first tick never returns, as a hung driver call would (0 = never)"},
     {"message", "string", "", "message attached to each outcome"},
-    {"next_target", "integer", "-1",
-     "on succeeded, ask the for_each to visit this target index next (-1 = no preference)"},
 };
 
 const std::vector<ParamSpec>& scripted_param_specs() {
@@ -70,8 +68,7 @@ ScriptedBehaviour::ScriptedBehaviour(const Params& params, const RunContext&)
       throw_on_(params.integer("throw_on")),
       block_on_(params.integer("block_on")),
       ignore_cancel_(params.boolean("ignore_cancel")),
-      message_(params.string("message")),
-      next_target_(params.integer("next_target")) {
+      message_(params.string("message")) {
   const std::string why = validate_script(params);
   if (!why.empty()) throw std::invalid_argument(why);
 }
@@ -98,9 +95,6 @@ std::optional<Outcome> ScriptedBehaviour::tick(Context& ctx) {
   const std::size_t k =
       std::min<std::size_t>(static_cast<std::size_t>(runs_ - 1), outcomes_.size() - 1);
   Outcome outcome{outcomes_[k], message_};
-  if (outcome.name == "succeeded" && next_target_ >= 0) {
-    ctx.blackboard().set(keys::kNextTargetIndex, next_target_);
-  }
   if (ignore_cancel_ && ctx.cancel_requested()) return std::nullopt;
   return outcome;
 }

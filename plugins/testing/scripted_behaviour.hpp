@@ -12,7 +12,7 @@
 namespace projtour::testing {
 
 // The schema every scripted kind shares, as the plugin ABI gives it and as the executor reads it.
-extern const projtour_param_desc kScriptedParams[7];
+extern const projtour_param_desc kScriptedParams[6];
 const std::vector<ParamSpec>& scripted_param_specs();
 // "" when the script is well formed; checked at mission load.
 std::string validate_script(const Params& params);
@@ -40,7 +40,6 @@ class ScriptedBehaviour : public Behaviour {
   long long block_on_ = 0;
   bool ignore_cancel_ = false;
   std::string message_;
-  long long next_target_ = -1;
   int runs_ = 0;
   long long ticks_this_run_ = 0;
   int stops_ = 0;

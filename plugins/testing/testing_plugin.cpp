@@ -138,13 +138,15 @@ class OdometryLocalization : public Service {
 };
 
 const char* const kSucceeded[] = {"succeeded"};
+const projtour_key_desc kLocalizationKeys[] = {writes(keys::kLocalization),
+                                               writes(keys::kLocalizationConverged)};
 const char* const kNavigate[] = {"succeeded", "unreachable", "blocked", "timeout", "lost"};
 const char* const kRelocalize[] = {"succeeded", "lost"};
 const char* const kAim[] = {"succeeded", "out_of_reach"};
 const char* const kCapture[] = {"succeeded", "no_frame"};
 const char* const kAlign[] = {"succeeded", "poor_fit", "no_target"};
 const char* const kProject[] = {"succeeded", "off_screen"};
-const char* const kNext[] = {"succeeded", "finished"};
+const char* const kNext[] = {"succeeded"};
 const projtour_param_desc kNullDeviceParams[] = {
     {"log_safe_stops", "boolean", "true", "append each safe stop to run_dir/test_drivers.log"}};
 const projtour_param_desc kLocalizationParams[] = {
@@ -175,9 +177,10 @@ const projtour_kind_desc kKinds[] = {
     driver_kind<TestDepthCamera>("test_depth_camera", "depth_camera", "null camera: no frames",
                                  kNullDeviceParams),
     driver_kind<TestProjector>("test_projector", "projector", "null projector", kNullDeviceParams),
-    service_kind<OdometryLocalization>("odometry_localization", "localization",
-                                       "dead reckoning: base odometry as the estimate",
-                                       kLocalizationParams),
+    with_keys(service_kind<OdometryLocalization>("odometry_localization", "localization",
+                                                 "dead reckoning: base odometry as the estimate",
+                                                 kLocalizationParams),
+              kLocalizationKeys),
 };
 
 }  // namespace

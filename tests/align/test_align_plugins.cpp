@@ -119,6 +119,20 @@ class PluginTest : public ::testing::Test {
     return test::render_on_floor(mesh, T_depth_model, true, seed);
   }
 
+  // A frame as capture publishes it: stamped with the joints and the base estimate.
+  CapturedFrame captured(DepthFrame frame) const {
+    CapturedFrame c;
+    c.frame = std::move(frame);
+    c.joints = pan_tilt_->q;
+    c.base_estimate = *blackboard_.find(keys::kLocalization);
+    return c;
+  }
+  const AlignResult& aligned() const {
+    const AlignResult* r = blackboard_.find(keys::kAlign);
+    if (r == nullptr) throw std::runtime_error("align published no result");
+    return *r;
+  }
+
   // start, tick until an outcome (advancing the clock 1/30 s per tick), stop.
   Outcome run_behaviour(Behaviour& b, int max_ticks = 1000) {
     Params p;
@@ -155,10 +169,24 @@ TEST_F(PluginTest, CaptureAveragesFramesOntoTheBlackboard) {
       registry().create_behaviour("capture", params_of("capture", {{"average_frames", 2LL}}), run_);
   const Outcome o = run_behaviour(*capture);
   ASSERT_EQ(o.name, "succeeded") << o.message;
-  const auto frame = blackboard_.require<std::shared_ptr<const DepthFrame>>(keys::kDepthFrame);
-  ASSERT_TRUE(frame);
-  EXPECT_DOUBLE_EQ(frame->t_s, 0.5);
-  EXPECT_EQ(frame->depth_mm, average_depth_frames({a, b}).depth_mm);
+  const CapturedFrame* c = blackboard_.find(keys::kCapture);
+  ASSERT_NE(c, nullptr);
+  EXPECT_DOUBLE_EQ(c->frame.t_s, 0.5);
+  EXPECT_EQ(c->frame.depth_mm, average_depth_frames({a, b}).depth_mm);
+  EXPECT_EQ(c->joints.tilt_rad, pan_tilt_->q.tilt_rad);
+}
+
+// The pose of a depth frame is where the camera was when the frame was taken: align used to read
+// the joints at align time, so a head that moved in between put the guess (and the crop) off.
+TEST_F(PluginTest, AlignUsesTheJointsStampedAtCaptureNotTheJointsNow) {
+  blackboard_.set(keys::kCapture, captured(rendered_frame(3)));
+  pan_tilt_->q = {deg_to_rad(20.0), deg_to_rad(-10.0)};  // the head moved after the capture
+  auto align = registry().create_behaviour("align", params_of("align"), run_);
+  const Outcome o = run_behaviour(*align);
+  ASSERT_EQ(o.name, "succeeded") << o.message;
+  pan_tilt_->q = {0.0, deg_to_rad(8.0)};
+  ASSERT_TRUE(aligned().T_camera_model);
+  EXPECT_LT(translation_distance_m(*aligned().T_camera_model, T_camera_model_true()) * 1000.0, 2.0);
 }
 
 TEST_F(PluginTest, CaptureWithoutFramesEndsNoFrameAndADisconnectFails) {
@@ -176,18 +204,22 @@ TEST_F(PluginTest, CaptureWithoutFramesEndsNoFrameAndADisconnectFails) {
 }
 
 TEST_F(PluginTest, AlignFindsTheTruePoseAndDrawsIt) {
-  blackboard_.set(keys::kDepthFrame, std::make_shared<const DepthFrame>(rendered_frame(3)));
+  blackboard_.set(keys::kCapture, captured(rendered_frame(3)));
   auto align = registry().create_behaviour("align", params_of("align"), run_);
   const Outcome o = run_behaviour(*align);
   ASSERT_EQ(o.name, "succeeded") << o.message;
-  const auto T = blackboard_.require<Eigen::Isometry3d>(keys::kTCameraModel);
-  const auto guess = blackboard_.require<Eigen::Isometry3d>(keys::kTCameraModelGuess);
+  ASSERT_TRUE(aligned().T_camera_model);
+  const Eigen::Isometry3d T = *aligned().T_camera_model;
+  const Eigen::Isometry3d guess = aligned().T_camera_model_guess;
   const Eigen::Isometry3d truth = T_camera_model_true();
   // The guess is the nominal pose; the result is the true one.
   EXPECT_GT(translation_distance_m(guess, truth), 0.02);
   EXPECT_LT(translation_distance_m(T, truth) * 1000.0, 2.0);
   EXPECT_LT(rad_to_deg(rotation_angle_rad(T, truth)), 0.2);
-  const auto q = blackboard_.require<keys::AlignQuality>(keys::kAlignQuality);
+  ASSERT_TRUE(aligned().quality);
+  const AlignQuality q = *aligned().quality;
+  ASSERT_TRUE(aligned().model);
+  EXPECT_GT(aligned().model->points.size(), 1000u);
   EXPECT_EQ(q.method, "projective_icp");
   EXPECT_GT(q.inlier_fraction, 0.8);
   EXPECT_GT(q.iterations, 0);
@@ -199,20 +231,22 @@ TEST_F(PluginTest, AlignFindsTheTruePoseAndDrawsIt) {
 // goes through the same quality gate (closest-point ICP with the floor in the crop often
 // stops short of the truth, which the gate then reports as a poor fit).
 TEST_F(PluginTest, AlignWithPclIcpAndGicp) {
-  blackboard_.set(keys::kDepthFrame, std::make_shared<const DepthFrame>(rendered_frame(4)));
+  blackboard_.set(keys::kCapture, captured(rendered_frame(4)));
   for (const char* method : {"pcl_icp", "pcl_gicp"}) {
-    blackboard_.erase(keys::kAlignQuality);
+    blackboard_.erase(keys::kAlign);
     auto align = registry().create_behaviour(
         "align", params_of("align", {{"method", std::string(method)}}), run_);
     const Outcome o = run_behaviour(*align);
     EXPECT_TRUE(o.name == "succeeded" || o.name == "poor_fit") << method << ": " << o.message;
-    const auto q = blackboard_.require<keys::AlignQuality>(keys::kAlignQuality);
+    ASSERT_TRUE(aligned().quality) << method;
+    const AlignQuality q = *aligned().quality;
     EXPECT_EQ(q.method, method);
     EXPECT_GT(q.iterations, 0) << method;
-    EXPECT_EQ(o.name == "succeeded", blackboard_.has(keys::kTCameraModel)) << method;
+    EXPECT_EQ(o.name == "succeeded", aligned().T_camera_model.has_value()) << method;
     if (o.name == "succeeded") {
-      const auto T = blackboard_.require<Eigen::Isometry3d>(keys::kTCameraModel);
-      EXPECT_LT(translation_distance_m(T, T_camera_model_true()) * 1000.0, 10.0) << method;
+      EXPECT_LT(translation_distance_m(*aligned().T_camera_model, T_camera_model_true()) * 1000.0,
+                10.0)
+          << method;
     }
   }
   EXPECT_NE(
@@ -223,12 +257,12 @@ TEST_F(PluginTest, AlignWithPclIcpAndGicp) {
 TEST_F(PluginTest, AlignWithAnEmptyCropIsNoTarget) {
   DepthFrame empty = rendered_frame(5);
   std::fill(empty.depth_mm.begin(), empty.depth_mm.end(), 0);
-  blackboard_.set(keys::kDepthFrame, std::make_shared<const DepthFrame>(empty));
+  blackboard_.set(keys::kCapture, captured(empty));
   auto align = registry().create_behaviour("align", params_of("align"), run_);
   const Outcome o = run_behaviour(*align);
   EXPECT_EQ(o.name, "no_target") << o.message;
-  EXPECT_FALSE(blackboard_.has(keys::kTCameraModel));
-  EXPECT_TRUE(blackboard_.has(keys::kTCameraModelGuess));
+  EXPECT_FALSE(aligned().T_camera_model);
+  EXPECT_FALSE(aligned().quality);
 }
 
 TEST_F(PluginTest, AlignOfAWrongModelIsPoorFit) {
@@ -245,12 +279,12 @@ TEST_F(PluginTest, AlignOfAWrongModelIsPoorFit) {
            "3 2 6 3\n3 3 6 7\n3 0 4 2\n3 2 4 6\n3 1 3 5\n3 3 7 5\n";
   }
   mission_.targets[0].model = box;
-  blackboard_.set(keys::kDepthFrame, std::make_shared<const DepthFrame>(rendered_frame(6)));
+  blackboard_.set(keys::kCapture, captured(rendered_frame(6)));
   auto align = registry().create_behaviour("align", params_of("align"), run_);
   const Outcome o = run_behaviour(*align);
   EXPECT_EQ(o.name, "poor_fit") << o.message;
-  EXPECT_FALSE(blackboard_.has(keys::kTCameraModel));
-  EXPECT_TRUE(blackboard_.has(keys::kAlignQuality));
+  EXPECT_FALSE(aligned().T_camera_model);
+  EXPECT_TRUE(aligned().quality);
 }
 
 TEST_F(PluginTest, AlignWithoutAFrameFails) {

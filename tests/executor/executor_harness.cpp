@@ -86,7 +86,7 @@ const std::map<std::string, std::vector<std::string>>& tour_kinds() {
       {"capture", {"succeeded", "no_frame"}},
       {"align", {"succeeded", "poor_fit", "no_target"}},
       {"project", {"succeeded", "off_screen"}},
-      {"next", {"succeeded", "finished"}},
+      {"next", {"succeeded"}},
       {"scripted", {"succeeded"}},
   };
   return kKinds;

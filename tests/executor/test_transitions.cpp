@@ -1,6 +1,8 @@
 // Whole-sequence tests of the hierarchical state machine, in-process with scripted behaviours.
 #include <gtest/gtest.h>
 
+#include <mrpt/maps/COccupancyGridMap2D.h>
+
 #include "executor_harness.hpp"
 #include "projtour/blackboard_keys.hpp"
 
@@ -390,35 +392,82 @@ TEST(Transitions, StartFromAnyState) {
                                    kTourEnd}));
 }
 
-TEST(Transitions, NextTargetIndexFromBlackboardOrdersVisits) {
-  Harness h;
-  h.load(R"(initial: visit
+// The for_each runs the visiting order (next used to choose, and the executor to fall back on
+// mission order after a skip): `order: nearest` ranks by path length on the run's map.
+TEST(Transitions, ForEachOrderNearestGoesByPathLengthNotStraightLine) {
+  // 12 x 12 m free map with a wall at x = 1.4 from y = -6 to y = 3: "front" is the closest in a
+  // straight line but behind the wall.
+  auto map = std::make_shared<mrpt::maps::COccupancyGridMap2D>(-2.0f, 10.0f, -6.0f, 6.0f, 0.05f);
+  const auto first_visited = [&](const std::string& order, bool wall) {
+    map->fill(1.0f);
+    if (wall) {
+      for (float y = -6.0f; y <= 3.0f; y += 0.025f) {
+        for (float x = 1.3f; x <= 1.45f; x += 0.025f) map->setPos(x, y, 0.0f);
+      }
+    }
+    Harness h({"front", "left", "far"});
+    h.mission.targets[0].T_map_model = isometry_from_xyz_rpy(2.5, -3.0, 0.9, 0, 0, 0);
+    h.mission.targets[1].T_map_model = isometry_from_xyz_rpy(-1.0, 4.5, 0.9, 0, 0, 0);
+    h.mission.targets[2].T_map_model = isometry_from_xyz_rpy(6.0, 0.0, 0.9, 0, 0, 0);
+    h.mission.robot.base.radius_m = 0.3;
+    h.run_context.map = map;
+    PoseEstimate2D here;
+    here.mean = Pose2D{0.0, -3.0, 0.0};
+    h.blackboard.set(keys::kLocalization, here);
+    h.load(R"(initial: visit
 states:
   visit:
     for_each: target
+    order: )" +
+           order + R"(
     initial: next
     states:
       next:
         behaviour: scripted
-        params: {next_target: 2}
         on: {succeeded: finish, failed: abort}
     on: {done: finish}
 )");
-  h.build();
-  EXPECT_EQ(h.run(), TourOutcome::completed);
-  std::vector<std::string> order;
-  for (const auto& r : h.executor->records()) order.push_back(r.id);
-  EXPECT_EQ(order, (std::vector<std::string>{"rabbit", "sign", "pillar"}));
+    h.build();
+    EXPECT_EQ(h.run(), TourOutcome::completed);
+    return h.executor->records().front().id;
+  };
+  // Straight line: front's stand-off (3.5, -3) is 3.5 m away, left's (0, 4.5) 7.5 m, far's
+  // (7, 0) 7.6 m; by path front needs to go round the wall's end at y = 3.
+  EXPECT_EQ(first_visited("nearest", true), "left");
+  EXPECT_EQ(first_visited("mission", true), "front");
+  EXPECT_EQ(first_visited("nearest", false), "front");
 }
+
+TEST(MachineValidation, OrderBelongsToAForEach) {
+  Harness h;
+  Diagnostics diag;
+  EXPECT_FALSE(h.parse(R"(initial: a
+states:
+  a:
+    initial: s
+    order: nearest
+    states:
+      s: {behaviour: scripted, on: {succeeded: finish, failed: abort}}
+    on: {done: finish}
+)",
+                       diag));
+  EXPECT_NE(diag.format().find("machine.yaml:5:12: states.a.order: order: belongs to a for_each"),
+            std::string::npos)
+      << diag.format();
+}
+
+constexpr Key<int> kVisitProbe{"probe", KeyScope::visit, "int"};
+constexpr Key<int> kTourProbe{"tour.probe", KeyScope::tour, "int"};
+constexpr Key<long long> kUpdates{"tour.updates", KeyScope::tour, "long long"};
 
 // Sees whether a per-target key survived into the next visit, then writes one.
 class TargetKeyProbe : public Behaviour {
  public:
   explicit TargetKeyProbe(std::vector<bool>* seen) : seen_(seen) {}
   void start(Context& ctx) override {
-    seen_->push_back(ctx.blackboard().has("target.probe"));
-    ctx.blackboard().set("target.probe", 1);
-    ctx.blackboard().set("tour.probe", 1);
+    seen_->push_back(ctx.blackboard().has(kVisitProbe));
+    ctx.blackboard().set(kVisitProbe, 1);
+    ctx.blackboard().set(kTourProbe, 1);
   }
   std::optional<Outcome> tick(Context&) override { return Outcome{"succeeded", ""}; }
 
@@ -446,7 +495,7 @@ states:
   h.build();
   EXPECT_EQ(h.run(), TourOutcome::completed);
   EXPECT_EQ(seen, (std::vector<bool>{false, false, false}));
-  EXPECT_TRUE(h.blackboard.has("tour.probe"));
+  EXPECT_TRUE(h.blackboard.has(kTourProbe));
 }
 
 TEST(Transitions, TargetDoneObserverGetsEveryRecord) {
@@ -527,7 +576,7 @@ class CountingService : public Service {
   void start(Context&) override {
     if (fail_start_) throw std::runtime_error("no laser");
   }
-  void update(Context& ctx) override { ctx.blackboard().set("tour.updates", ++updates_); }
+  void update(Context& ctx) override { ctx.blackboard().set(kUpdates, ++updates_); }
   void stop(Context&) override { ++stops; }
   int stops = 0;
 
@@ -542,7 +591,8 @@ class UpdateProbe : public Behaviour {
   explicit UpdateProbe(std::vector<long long>* seen) : seen_(seen) {}
   void start(Context&) override {}
   std::optional<Outcome> tick(Context& ctx) override {
-    seen_->push_back(ctx.blackboard().get<long long>("tour.updates").value_or(-1));
+    const long long* updates = ctx.blackboard().find(kUpdates);
+    seen_->push_back(updates != nullptr ? *updates : -1);
     if (seen_->size() < 3) return std::nullopt;
     return Outcome{"succeeded", ""};
   }

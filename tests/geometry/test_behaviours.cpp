@@ -33,11 +33,18 @@ void aim_and_align(Rig& rig, const Eigen::Isometry3d& model_error = Eigen::Isome
   const auto q = k.aim_projector_at(p_base);
   ASSERT_TRUE(q);
   rig.pan_tilt->measured_ = *q;
-  rig.blackboard.set<Eigen::Isometry3d>(keys::kTCameraModel,
-                                        rig.exact_T_camera_model(kBase, t) * model_error);
-  rig.blackboard.set<Eigen::Isometry3d>(
-      keys::kTCameraModelGuess,
-      rig.exact_T_camera_model(kBase, t) * isometry_from_xyz_rpy(0.0, 0.03, 0.0, 0, 0, 0.02));
+  AlignResult aligned;
+  aligned.T_camera_model = rig.exact_T_camera_model(kBase, t) * model_error;
+  aligned.T_camera_model_guess =
+      rig.exact_T_camera_model(kBase, t) * isometry_from_xyz_rpy(0.0, 0.03, 0.0, 0, 0, 0.02);
+  aligned.joints = *q;
+  rig.blackboard.set(keys::kAlign, std::move(aligned));
+}
+
+const ProjectResult& projected(const Rig& rig) {
+  const ProjectResult* r = rig.blackboard.find(keys::kProject);
+  if (r == nullptr) throw std::runtime_error("project published no result");
+  return *r;
 }
 
 bool any_contains(const std::vector<std::string>& lines, const std::string& what) {
@@ -110,19 +117,20 @@ TEST(Project, ShowsContentOnTheModelPointsForTheDwellThenBlanks) {
   const Outcome out = rig.run(*project);
   ASSERT_EQ(out.name, "succeeded") << out.message;
   EXPECT_NEAR(rig.clock.now_s() - t0, 2.0, 0.1 + 1e-9);  // the target's dwell_s
-  EXPECT_NEAR(rig.blackboard.require<double>(keys::kProjectedSeconds), 2.0, 0.1 + 1e-9);
+  EXPECT_NEAR(projected(rig).shown_s.value_or(-1.0), 2.0, 0.1 + 1e-9);
   EXPECT_TRUE(rig.projector->is_blank());
   ASSERT_EQ(rig.projector->frames.size(), 1u);  // a still image is shown once
   EXPECT_TRUE(std::filesystem::exists(rig.ctx.target_dir / "projector.png"));
 
-  const auto after = rig.blackboard.require<Quad2d>(keys::kPixelsAfterAlign);
-  const auto before = rig.blackboard.require<Quad2d>(keys::kPixelsBeforeAlign);
+  ASSERT_TRUE(projected(rig).pixels_after_align);
+  ASSERT_TRUE(projected(rig).pixels_before_align);
+  const Quad2d after = *projected(rig).pixels_after_align;
+  const Quad2d before = *projected(rig).pixels_before_align;
   EXPECT_GT((after[0] - before[0]).norm(), 5.0);  // the guess was off by 3 cm
   // The exact pixels of the Model Points, computed independently here.
   const HeadKinematics k(rig.mission.robot);
-  const Eigen::Isometry3d T_projector_model =
-      k.T_projector_camera(rig.pan_tilt->measured_) *
-      rig.blackboard.require<Eigen::Isometry3d>(keys::kTCameraModel);
+  const Eigen::Isometry3d T_projector_model = k.T_projector_camera(rig.pan_tilt->measured_) *
+                                              *rig.blackboard.find(keys::kAlign)->T_camera_model;
   const cv::Mat& frame = rig.projector->frames[0];
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   for (const auto& p : after) centre += p / 4.0;
@@ -144,7 +152,7 @@ TEST(Project, DwellParameterOverridesTheTarget) {
   auto project = rig.make("project", {{"dwell_s", 0.5}});
   const Outcome out = rig.run(*project);
   ASSERT_EQ(out.name, "succeeded") << out.message;
-  EXPECT_NEAR(rig.blackboard.require<double>(keys::kProjectedSeconds), 0.5, 1e-9);
+  EXPECT_NEAR(projected(rig).shown_s.value_or(-1.0), 0.5, 1e-9);
 }
 
 TEST(Project, ModelPointOutsideTheImageIsOffScreen) {
@@ -209,7 +217,7 @@ TEST(Project, CancelBlanksAndRecordsTheTimeShown) {
   const Outcome out = rig.run(*project);
   EXPECT_EQ(out.name, "cancelled");
   EXPECT_TRUE(rig.projector->is_blank());
-  EXPECT_NEAR(rig.blackboard.require<double>(keys::kProjectedSeconds), 0.7, 0.1 + 1e-9);
+  EXPECT_NEAR(projected(rig).shown_s.value_or(-1.0), 0.7, 0.1 + 1e-9);
 }
 
 TEST(Project, VideoContentPlaysThroughTheDwellByMissionTime) {
@@ -236,64 +244,15 @@ TEST(Project, VideoContentPlaysThroughTheDwellByMissionTime) {
 
 // ---- next ------------------------------------------------------------------------------------
 
-TEST(Next, MissionOrderStowsBlanksAndMarksDone) {
+// next only leaves the target safely; the for_each chooses the next target (executor tests).
+TEST(Next, StowsTheHeadAndBlanksTheProjector) {
   Rig rig;
   rig.projector->show(cv::Mat::zeros(800, 1280, CV_8UC3));
   auto next = rig.make("next");
-  Outcome out = rig.run(*next);
+  const Outcome out = rig.run(*next);
   ASSERT_EQ(out.name, "succeeded") << out.message;
-  EXPECT_EQ(rig.blackboard.require<long long>(keys::kNextTargetIndex), 1);
   EXPECT_TRUE(rig.projector->is_blank());
   ASSERT_EQ(rig.pan_tilt->commands.size(), 1u);
   EXPECT_NEAR(rig.pan_tilt->commands[0].tilt_rad, deg_to_rad(10), 1e-12);  // the stow angles
   EXPECT_TRUE(rig.pan_tilt->reached());
-  auto done = rig.blackboard.require<std::vector<std::string>>(keys::kDoneTargets);
-  EXPECT_EQ(done, std::vector<std::string>{"front"});
-
-  rig.set_target(1);
-  out = rig.run(*next);
-  EXPECT_EQ(rig.blackboard.require<long long>(keys::kNextTargetIndex), 2);
-  rig.set_target(2);
-  out = rig.run(*next);
-  EXPECT_EQ(out.name, "finished") << out.message;
-  done = rig.blackboard.require<std::vector<std::string>>(keys::kDoneTargets);
-  EXPECT_EQ(done, (std::vector<std::string>{"front", "left", "far"}));
-}
-
-TEST(Next, NearestByPathLengthNotStraightLine) {
-  Rig rig;
-  // 12 x 12 m free map with a wall at x = 1.4 from y = -6 to y = 3: "front" is the closest in a
-  // straight line but behind the wall.
-  auto map = std::make_shared<mrpt::maps::COccupancyGridMap2D>(-2.0f, 10.0f, -6.0f, 6.0f, 0.05f);
-  map->fill(1.0f);
-  for (float y = -6.0f; y <= 3.0f; y += 0.025f) {
-    for (float x = 1.3f; x <= 1.45f; x += 0.025f) map->setPos(x, y, 0.0f);
-  }
-  rig.run_ctx.map = map;
-  rig.mission.targets[0].T_map_model = isometry_from_xyz_rpy(2.5, -3.0, 0.9, 0, 0, 0);  // faces +x
-  rig.mission.targets[1].T_map_model = isometry_from_xyz_rpy(-1.0, 4.5, 0.9, 0, 0, 0);
-  rig.mission.targets[2].T_map_model = isometry_from_xyz_rpy(6.0, 0.0, 0.9, 0, 0, 0);
-  rig.ctx.target = nullptr;  // leaving no target: choose among all three
-  rig.blackboard.set(keys::kLocalization, estimate_at(Pose2D{0.0, -3.0, 0.0}));
-  // Straight line: front's stand-off (3.5, -3) is 3.5 m away, left's (0, 4.5) 7.5 m, far's
-  // (7, 0) 7.6 m; by path front needs to go round the wall's end at y = 3.
-  auto next = rig.make("next", {{"order", std::string("nearest")}});
-  const Outcome out = rig.run(*next);
-  ASSERT_EQ(out.name, "succeeded") << out.message;
-  EXPECT_EQ(rig.blackboard.require<long long>(keys::kNextTargetIndex), 1) << out.message;
-
-  auto mission_order = rig.make("next");
-  rig.run(*mission_order);
-  EXPECT_EQ(rig.blackboard.require<long long>(keys::kNextTargetIndex), 0);
-
-  // Without a wall, the straight-line nearest wins.
-  map->fill(1.0f);
-  auto nearest_again = rig.make("next", {{"order", std::string("nearest")}});
-  rig.run(*nearest_again);
-  EXPECT_EQ(rig.blackboard.require<long long>(keys::kNextTargetIndex), 0);
-}
-
-TEST(Next, RejectsUnknownOrder) {
-  Rig rig;
-  EXPECT_THROW(rig.make("next", {{"order", std::string("random")}}), std::invalid_argument);
 }

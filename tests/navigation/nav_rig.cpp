@@ -183,7 +183,9 @@ Pose2D Rig::truth() const {
 }
 
 PoseEstimate2D Rig::estimate() const {
-  return board_.require<PoseEstimate2D>(keys::kLocalization);
+  const PoseEstimate2D* estimate = board_.find(keys::kLocalization);
+  if (estimate == nullptr) throw std::runtime_error("no localization estimate on the blackboard");
+  return *estimate;
 }
 
 TargetSpec target_for_goal(const std::string& id, const Pose2D& goal) {

@@ -51,9 +51,11 @@ TEST_P(NavigateCorridors, ReachesStandoffPoseOnTheDemoMap) {
   EXPECT_LT(heading_error_rad(estimate, goal), deg_to_rad(5.0));
   EXPECT_LT(distance_m(truth, goal), 0.15);
   EXPECT_LT(heading_error_rad(truth, goal), deg_to_rad(6.0));
-  const auto path = rig.blackboard().get<std::vector<Pose2D>>(keys::kPlannedPath);
-  ASSERT_TRUE(path.has_value());
-  EXPECT_GT(path->size(), 5u);
+  const NavigateResult* navigated = rig.blackboard().find(keys::kNavigate);
+  ASSERT_NE(navigated, nullptr);
+  EXPECT_GT(navigated->planned_path.size(), 5u);
+  ASSERT_TRUE(navigated->arrived_at);
+  EXPECT_LT(distance_m(navigated->arrived_at->mean, goal), 0.10);
   std::printf("[ figures ] %s: arrival error truth-estimate %.3f m %.2f deg at t=%.1f s\n",
               GetParam().name, distance_m(truth, estimate),
               rad_to_deg(heading_error_rad(truth, estimate)), rig.now_s());
@@ -167,8 +169,8 @@ TEST(NavigateOutcomes, ReplansAroundAnObstacleTheMapDoesNotHave) {
   ASSERT_TRUE(outcome.has_value());
   EXPECT_EQ(outcome->name, "succeeded") << outcome->message;
   // The last plan (made after the laser saw the box) passes beside it.
-  const auto path = rig.blackboard().require<std::vector<Pose2D>>(keys::kPlannedPath);
-  for (const Pose2D& p : path) {
+  ASSERT_NE(rig.blackboard().find(keys::kNavigate), nullptr);
+  for (const Pose2D& p : rig.blackboard().find(keys::kNavigate)->planned_path) {
     if (p.x_m > 13.6 && p.x_m < 14.8) {
       EXPECT_GT(p.y_m, 2.3) << p.x_m << ", " << p.y_m;
     }
@@ -226,7 +228,8 @@ TEST(Relocalize, RecoversAfterTheRobotIsDisplacedByHalfAMetre) {
   rig.idle(3.0);
   ASSERT_GT(distance_m(rig.estimate().mean, rig.truth()), 0.3);
   // The cloud is still tight, but the scans no longer fit the map.
-  EXPECT_FALSE(rig.blackboard().require<bool>(keys::kLocalizationConverged));
+  ASSERT_NE(rig.blackboard().find(keys::kLocalizationConverged), nullptr);
+  EXPECT_FALSE(*rig.blackboard().find(keys::kLocalizationConverged));
   const auto outcome = rig.run("relocalize", rig.defaults("relocalize"), nullptr, 60.0);
   ASSERT_TRUE(outcome.has_value());
   EXPECT_EQ(outcome->name, "succeeded") << outcome->message;

@@ -47,8 +47,6 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(BadValue{"aim", "aim", "{aim_at: centre}",
                                "aim_at must be \"model_points\" or \"origin\", not \"centre\""},
                       BadValue{"aim", "aim", "{settle_s: -1}", "settle_s must be >= 0"},
-                      BadValue{"next", "next", "{order: alphabetical}",
-                               "order must be \"mission\" or \"nearest\", not \"alphabetical\""},
                       BadValue{"project", "project", "{min_area_px2: -5}",
                                "planarity_warn_mm and min_area_px2 must be >= 0"},
                       BadValue{"navigate", "navigate", "{lookahead_m: 0}",

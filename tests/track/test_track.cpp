@@ -219,8 +219,10 @@ class DryRun {
       s.nudged =
           translation_distance_m(truth->true_T_map_model("rabbit"), T_map_model_before) > 1e-6;
       s.lit = !drivers.projector->is_blank();
-      const auto pixels = blackboard.require<Quad2d>(keys::kPixelsAfterAlign);
-      s.error_mm = truth->evaluate_projection("rabbit", pixels)->mean_mm();
+      const ProjectResult* result = blackboard.find(keys::kProject);
+      EXPECT_TRUE(result != nullptr && result->pixels_after_align);
+      if (result == nullptr || !result->pixels_after_align) return;
+      s.error_mm = truth->evaluate_projection("rabbit", *result->pixels_after_align)->mean_mm();
       shown.push_back(s);
       tick_started = std::chrono::steady_clock::now();
     });
@@ -394,7 +396,6 @@ TEST(Track, ParametersAreCheckedAtLoad) {
   EXPECT_NE(with("track_threshold_mm", -1.0).find("track_threshold_mm"), std::string::npos);
   EXPECT_NE(with("track_min_inlier_fraction", 1.5).find("track_min_inlier_fraction"),
             std::string::npos);
-  EXPECT_NE(with("track_model_spacing_m", 0.0).find("track_model_spacing_m"), std::string::npos);
 }
 
 }  // namespace

@@ -36,13 +36,9 @@ void StderrLogger::log(LogLevel level, const std::string& message) {
   std::cerr << "projtour: " << kNames[static_cast<int>(level)] << ": " << message << "\n";
 }
 
-void Blackboard::erase_prefix(const std::string& prefix) {
-  for (auto it = values_.begin(); it != values_.end();) {
-    if (it->first.compare(0, prefix.size(), prefix) == 0) {
-      it = values_.erase(it);
-    } else {
-      ++it;
-    }
+void Blackboard::clear_visit() {
+  for (auto it = entries_.begin(); it != entries_.end();) {
+    it = it->second.scope == KeyScope::visit ? entries_.erase(it) : std::next(it);
   }
 }
 

@@ -44,6 +44,18 @@ const char* to_string(Family family) {
   return "?";
 }
 
+const char* to_string(KeyAccess access) {
+  switch (access) {
+    case KeyAccess::read:
+      return "reads";
+    case KeyAccess::read_if_present:
+      return "reads if present";
+    case KeyAccess::write:
+      return "writes";
+  }
+  return "?";
+}
+
 bool KindInfo::declares_outcome(const std::string& outcome) const {
   return std::find(outcomes.begin(), outcomes.end(), outcome) != outcomes.end();
 }
@@ -187,6 +199,46 @@ KindInfo read_kind(const fs::path& file, const projtour_kind_desc& d, std::size_
       fail(file, where + "outcome " + in_quotes(d.outcomes[i]) + " twice");
     }
     kind.outcomes.emplace_back(d.outcomes[i]);
+  }
+
+  if (d.key_count > 0 && d.keys == nullptr) {
+    fail(file, where + "key_count is " + std::to_string(d.key_count) + " but keys is null");
+  }
+  for (std::uint32_t i = 0; i < d.key_count; ++i) {
+    const projtour_key_desc& k = d.keys[i];
+    const std::string at = where + "key " + std::to_string(i);
+    if (k.name == nullptr || k.name[0] == '\0') fail(file, at + ": null or empty name");
+    if (k.type == nullptr || k.type[0] == '\0') {
+      fail(file, where + "key " + in_quotes(k.name) + ": null or empty type");
+    }
+    KeyUse use;
+    use.name = k.name;
+    use.type = k.type;
+    switch (k.access) {
+      case PROJTOUR_KEY_READ:
+        use.access = KeyAccess::read;
+        break;
+      case PROJTOUR_KEY_READ_OPTIONAL:
+        use.access = KeyAccess::read_if_present;
+        break;
+      case PROJTOUR_KEY_WRITE:
+        use.access = KeyAccess::write;
+        break;
+      default:
+        fail(file, where + "key " + in_quotes(use.name) + ": unknown access " +
+                       std::to_string(k.access) +
+                       " (expected 1 read, 2 read if present or 3 write)");
+    }
+    for (const auto& other : kind.keys) {
+      if (other.name == use.name && other.access == use.access) {
+        fail(file, where + "key " + in_quotes(use.name) + " twice");
+      }
+      if (other.name == use.name && other.type != use.type) {
+        fail(file, where + "key " + in_quotes(use.name) + " as " + in_quotes(other.type) +
+                       " and as " + in_quotes(use.type));
+      }
+    }
+    kind.keys.push_back(std::move(use));
   }
 
   if (d.create == nullptr) fail(file, where + "null create function");

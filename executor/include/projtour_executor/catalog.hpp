@@ -51,7 +51,8 @@ class InProcessCatalog : public BehaviourCatalog {
   using Validator = std::function<std::string(const Params& params)>;
 
   void add(const std::string& kind, std::vector<std::string> outcomes,
-           std::vector<ParamSpec> params, Factory factory, Validator validator = nullptr);
+           std::vector<ParamSpec> params, Factory factory, Validator validator = nullptr,
+           std::vector<KeyUse> keys = {});
 
   const KindInfo* find(const std::string& kind) const override;
   std::vector<std::string> kind_names() const override;

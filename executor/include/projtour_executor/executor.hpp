@@ -2,6 +2,8 @@
 // Runs a Machine: one leaf state active at a time, ticked at a fixed mission-time step.
 // Single-threaded: pause/resume/request_cancel are called between steps (a signal handler only
 // sets flags that the runner turns into these calls).
+#include <cstdint>
+#include <deque>
 #include <map>
 #include <memory>
 #include <optional>
@@ -12,6 +14,7 @@
 #include "projtour/behaviour.hpp"
 #include "projtour/clock.hpp"
 #include "projtour/context.hpp"
+#include "projtour/path_planner.hpp"
 #include "projtour_executor/catalog.hpp"
 #include "projtour_executor/events.hpp"
 #include "projtour_executor/machine.hpp"
@@ -89,7 +92,14 @@ class Executor {
 
  private:
   bool start_services();
-  void publish_done_targets();
+  // A state to enter or the active leaf's outcome, processed in order by process_requests().
+  struct Request {
+    const StateSpec* enter = nullptr;
+    std::optional<Outcome> leaf_end;
+  };
+  void request_enter(const StateSpec& state);
+  void request_leaf_end(Outcome outcome);
+  void process_requests();
   void emit(EventType type, const StateSpec& state, const std::string& outcome = "",
             const std::string& message = "", const std::string& to = "");
   void enter(const StateSpec& state);
@@ -97,7 +107,9 @@ class Executor {
   // Starts the visit of target `index`: per-target state reset, its directory, the enter event.
   void open_visit(const StateSpec& for_each, std::size_t index);
   void begin_visit(const StateSpec& for_each);
-  std::optional<std::size_t> choose_next_target();
+  std::optional<std::size_t> choose_next_target(const StateSpec& for_each);
+  std::size_t nearest_target(const PoseEstimate2D& estimate,
+                             const std::vector<std::size_t>& remaining);
   void finish_leaf(Outcome outcome);
   void leave_leaf(const Outcome& outcome);
   void follow(const StateSpec& from, const TransitionSpec& transition, const std::string& reason);
@@ -145,7 +157,9 @@ class Executor {
   std::string abort_reason_;
   std::vector<std::string> ignored_cancel_;
   std::size_t transition_count_ = 0;
-  std::size_t transitions_this_tick_ = 0;
+  std::deque<Request> requests_;
+  std::uint64_t leaf_entry_writes_ = 0;   // blackboard writes before the leaf started
+  std::unique_ptr<PathPlanner> planner_;  // order: nearest, on the run's map
   double start_s_ = 0.0;
   long long ticks_ = 0;
 };

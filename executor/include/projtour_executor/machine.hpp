@@ -59,10 +59,16 @@ struct StateSpec {
   Params params;
   double timeout_s = 0.0;  // 0 = none
   int retries = 0;         // how often retry lists may take this state in one visit
+  // The outcome that means the visit's content was shown (`projected_on: succeeded`): a visit
+  // interrupted after it is recorded projected, not shown again on resume. Empty = none.
+  std::string projected_on;
 
   // Composite.
   std::string initial;
   bool for_each_target = false;
+  // for_each: which target comes next, "mission" (file order) or "nearest" (shortest path on the
+  // map from the robot's estimate to the stand-off pose); empty = the mission's `order:`.
+  std::string order;
   std::vector<std::unique_ptr<StateSpec>> children;
 
   std::vector<TransitionSpec> on;
@@ -103,7 +109,16 @@ std::optional<Machine> load_machine(const MachineSource& source, const Behaviour
 const std::string& default_machine_yaml();
 inline constexpr const char* kDefaultMachineFile = "<default machine>";
 
-// Graphviz dot: composites as clusters, reserved targets as terminal nodes.
-std::string machine_to_dot(const Machine& machine);
+// Every blackboard key a leaf's kind must read is written, on every path that reaches the leaf,
+// by a state before it or by one of the run's services (`service_writes`). A write counts on
+// the kind's `succeeded` outcome (on every declared outcome when it has none), and a visit's
+// start clears what the states wrote. Readers and writers of one key must agree on its type.
+// Each problem is recorded at the reading state's line.
+void check_machine_data(const Machine& machine, const BehaviourCatalog& catalog,
+                        const std::vector<KeyUse>& service_writes, Diagnostics& diag);
+
+// Graphviz dot: composites as clusters, reserved targets as terminal nodes, and (with a catalog)
+// dotted data edges from each state writing a key to each state reading it.
+std::string machine_to_dot(const Machine& machine, const BehaviourCatalog* catalog = nullptr);
 
 }  // namespace projtour

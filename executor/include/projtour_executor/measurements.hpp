@@ -1,17 +1,19 @@
 #pragma once
-// The report's measured fields of a target, taken when a state running one of the tour's
-// behaviour kinds exits: navigate -> localization_error, align -> align and target_pose_error,
-// project -> projected_s and projection_error_*. The *_error fields need the simulator's ground
-// truth and are left out without it.
-#include <string>
+// The report's measured fields of a target, from the typed step results a state wrote while it
+// ran, whichever kind it is: a NavigateResult gives localization_error, an AlignResult align and
+// target_pose_error, a ProjectResult projected_s and projection_error_*. The *_error fields need
+// the simulator's ground truth and are left out without it.
+#include <cstdint>
 
 #include "projtour/context.hpp"
 #include "projtour_executor/target_record.hpp"
 
 namespace projtour {
 
-// Adds what `kind`'s exit lets us measure to `measurements`, replacing earlier values of the
-// same visit. Never throws: a failing measurement is logged and left out.
-void measure_on_exit(const std::string& kind, const Context& ctx, TargetMeasurements& measurements);
+// Adds what the results written after `since_writes` (Blackboard::writes() when the state
+// started) let us measure, replacing earlier values of the same visit. Never throws: a failing
+// measurement is logged and left out.
+void measure_step_results(const Context& ctx, std::uint64_t since_writes,
+                          TargetMeasurements& measurements);
 
 }  // namespace projtour

@@ -90,8 +90,9 @@ class Align : public Behaviour {
     // reuse it); only the current target's is kept, so memory does not grow over a long tour.
     if (models_.count(ctx.target->id) == 0) {
       models_.clear();
-      models_[ctx.target->id] = std::make_shared<const IcpModel>(
+      auto cloud = std::make_shared<const ModelCloud>(
           load_model_cloud(ctx.target->model, settings_.model_spacing_m));
+      models_[ctx.target->id] = {cloud, std::make_shared<const IcpModel>(*cloud)};
     }
   }
 
@@ -100,39 +101,36 @@ class Align : public Behaviour {
     if (ctx.target == nullptr)
       return Outcome{kOutcomeFailed, "align runs only within a target visit"};
     Blackboard& bb = ctx.blackboard();
-    const auto frame = bb.get<std::shared_ptr<const DepthFrame>>(keys::kDepthFrame);
-    if (!frame || !*frame) {
+    const CapturedFrame* captured = bb.find(keys::kCapture);
+    if (captured == nullptr) {
       return Outcome{kOutcomeFailed,
                      "no depth frame on the blackboard (capture runs before align)"};
     }
-    const auto localization = bb.get<PoseEstimate2D>(keys::kLocalization);
-    if (!localization) return Outcome{kOutcomeFailed, "no localization estimate on the blackboard"};
-    if (!ctx.drivers().pan_tilt) return Outcome{kOutcomeFailed, "no pan-tilt driver"};
-    JointAngles q;
-    try {
-      q = ctx.drivers().pan_tilt->measured();
-    } catch (const DriverError& e) {
-      return Outcome{kOutcomeFailed, std::string("pan-tilt: ") + e.what()};
-    }
-    const std::shared_ptr<const IcpModel> model = models_.at(ctx.target->id);
+    const DepthFrame& frame = captured->frame;
+    const LoadedModel& loaded = models_.at(ctx.target->id);
+    const std::shared_ptr<const IcpModel>& model = loaded.icp;
     const CameraSpec& camera = ctx.robot().camera;
 
     const auto started = std::chrono::steady_clock::now();
-    const Eigen::Isometry3d T_map_camera =
-        isometry_from_pose2d(localization->mean) * HeadKinematics(ctx.robot()).T_base_camera(q);
+    AlignResult out;
+    out.model = loaded.cloud;
+    out.joints = captured->joints;
+    // The camera where it was when the frame was taken, not where it is now.
+    const Eigen::Isometry3d T_map_camera = isometry_from_pose2d(captured->base_estimate.mean) *
+                                           HeadKinematics(ctx.robot()).T_base_camera(out.joints);
     const Eigen::Isometry3d T_camera_model_guess = T_map_camera.inverse() * ctx.target->T_map_model;
-    bb.set(keys::kTCameraModelGuess, T_camera_model_guess);
+    out.T_camera_model_guess = T_camera_model_guess;
     const OrganizedCloud scene =
-        crop_sphere(**frame, camera.depth_to_color_m, T_camera_model_guess.translation(),
+        crop_sphere(frame, camera.depth_to_color_m, T_camera_model_guess.translation(),
                     model->bounding_radius_m() + settings_.crop_margin_m);
     const std::size_t scene_points = scene.valid_count();
     if (scene_points < static_cast<std::size_t>(settings_.min_points)) {
-      bb.erase(keys::kTCameraModel);
+      bb.set(keys::kAlign, std::move(out));
       std::ostringstream why;
       why << scene_points << " points within "
           << model->bounding_radius_m() + settings_.crop_margin_m
           << " m of the expected target (at least " << settings_.min_points << " needed)";
-      if (settings_.draw) draw(ctx, **frame, scene, *model, T_camera_model_guess, nullptr);
+      if (settings_.draw) draw(ctx, frame, scene, *model, T_camera_model_guess, nullptr);
       return Outcome{"no_target", why.str()};
     }
 
@@ -140,21 +138,16 @@ class Align : public Behaviour {
     result.time_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started)
             .count();
-    keys::AlignQuality quality;
-    quality.method = settings_.method_name;
-    quality.time_ms = result.time_ms;
-    quality.iterations = result.iterations;
-    quality.inlier_fraction = result.inlier_fraction;
-    quality.rmse_mm = result.rmse_mm;
-    bb.set(keys::kAlignQuality, quality);
-    if (settings_.draw) draw(ctx, **frame, scene, *model, T_camera_model_guess, &result);
+    out.quality = AlignQuality{settings_.method_name, result.time_ms, result.iterations,
+                               result.inlier_fraction, result.rmse_mm};
+    if (settings_.draw) draw(ctx, frame, scene, *model, T_camera_model_guess, &result);
 
     const bool good = result.converged && result.inlier_fraction >= settings_.min_inlier_fraction &&
                       result.rmse_mm <= settings_.max_rmse_mm;
     ctx.log().info("align " + ctx.target->id + " (" + settings_.method_name +
                    "): " + format_quality(result));
     if (!good) {
-      bb.erase(keys::kTCameraModel);
+      bb.set(keys::kAlign, std::move(out));
       std::ostringstream why;
       why << "poor fit: " << format_quality(result)
           << " (gate: inlier fraction >= " << settings_.min_inlier_fraction
@@ -162,7 +155,8 @@ class Align : public Behaviour {
       if (!result.converged) why << "; too few correspondences";
       return Outcome{"poor_fit", why.str()};
     }
-    bb.set(keys::kTCameraModel, result.T_camera_model);
+    out.T_camera_model = result.T_camera_model;
+    bb.set(keys::kAlign, std::move(out));
     return Outcome{"succeeded", format_quality(result)};
   }
 
@@ -194,7 +188,13 @@ class Align : public Behaviour {
 
   Settings settings_;
   IcpOptions icp_options_;
-  std::map<std::string, std::shared_ptr<const IcpModel>> models_;
+  // The cloud is what align publishes (project's tracking fits the same points); the IcpModel
+  // is its registration layout.
+  struct LoadedModel {
+    std::shared_ptr<const ModelCloud> cloud;
+    std::shared_ptr<const IcpModel> icp;
+  };
+  std::map<std::string, LoadedModel> models_;
 };
 
 const projtour_param_desc kAlignParams[] = {
@@ -213,9 +213,11 @@ const projtour_param_desc kAlignParams[] = {
     {"draw", "boolean", "true", "write alignment.png into the target's folder"},
 };
 const char* const kAlignOutcomes[] = {"succeeded", "poor_fit", "no_target"};
-const projtour_kind_desc kKinds[] = {
+const projtour_key_desc kAlignKeys[] = {reads(keys::kCapture), writes(keys::kAlign)};
+const projtour_kind_desc kKinds[] = {with_keys(
     behaviour_kind<Align>("align", "ICP of the target's model against the captured depth frame",
-                          kAlignParams, kAlignOutcomes, validator<read_settings>())};
+                          kAlignParams, kAlignOutcomes, validator<read_settings>()),
+    kAlignKeys)};
 
 }  // namespace
 }  // namespace projtour::align

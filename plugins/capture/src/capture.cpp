@@ -41,6 +41,13 @@ class Capture : public Behaviour {
     if (ctx.cancel_requested()) return Outcome{kOutcomeCancelled, "cancelled"};
     DepthCameraDriver* camera = ctx.drivers().depth_camera.get();
     if (camera == nullptr) return Outcome{kOutcomeFailed, "no depth camera driver"};
+    // Where the camera was when the frames came: align must use these, not where it is later.
+    if (!ctx.drivers().pan_tilt) return Outcome{kOutcomeFailed, "no pan-tilt driver"};
+    const PoseEstimate2D* base = ctx.blackboard().find(keys::kLocalization);
+    if (base == nullptr) {
+      return Outcome{kOutcomeFailed, std::string("no localization estimate on the blackboard (") +
+                                         keys::kLocalization.name + ")"};
+    }
     try {
       while (auto frame = camera->grab()) {
         // A dropped frame arrives with no readings: it would only thin the average.
@@ -55,11 +62,18 @@ class Capture : public Behaviour {
       return Outcome{kOutcomeFailed, std::string("depth camera: ") + e.what()};
     }
     if (frames_.size() >= static_cast<std::size_t>(settings_.average_frames)) {
-      auto frame = std::make_shared<const DepthFrame>(
-          frames_.size() == 1 ? std::move(frames_.front()) : average_depth_frames(frames_));
+      CapturedFrame captured;
+      captured.frame =
+          frames_.size() == 1 ? std::move(frames_.front()) : average_depth_frames(frames_);
+      try {
+        captured.joints = ctx.drivers().pan_tilt->measured();
+      } catch (const DriverError& e) {
+        return Outcome{kOutcomeFailed, std::string("pan-tilt: ") + e.what()};
+      }
+      captured.base_estimate = *base;
       std::ostringstream what;
-      what << frames_.size() << " frame(s), " << frame->valid_count() << " readings";
-      ctx.blackboard().set<std::shared_ptr<const DepthFrame>>(keys::kDepthFrame, std::move(frame));
+      what << frames_.size() << " frame(s), " << captured.frame.valid_count() << " readings";
+      ctx.blackboard().set(keys::kCapture, std::move(captured));
       frames_.clear();
       return Outcome{"succeeded", what.str()};
     }
@@ -84,9 +98,13 @@ const projtour_param_desc kParams[] = {
     {"max_wait_s", "number", "2.0", "no_frame when the frames have not arrived by then"},
 };
 const char* const kOutcomes[] = {"succeeded", "no_frame"};
-const projtour_kind_desc kKinds[] = {
-    behaviour_kind<Capture>("capture", "a depth frame from the depth camera onto the blackboard",
-                            kParams, kOutcomes, validator<read_settings>())};
+const projtour_key_desc kKeys[] = {reads(keys::kLocalization), writes(keys::kCapture)};
+const projtour_kind_desc kKinds[] = {with_keys(
+    behaviour_kind<Capture>("capture",
+                            "a depth frame from the depth camera, stamped with the joint angles "
+                            "and the base estimate at capture",
+                            kParams, kOutcomes, validator<read_settings>()),
+    kKeys)};
 
 }  // namespace
 }  // namespace projtour::capture

@@ -1,35 +1,36 @@
 #pragma once
-// The blackboard keys the tour steps share, with the type stored under each. Keys under
-// "target." are cleared by the executor when a visit to a new target starts.
+// The keys the shipped steps share, and the one typed result each step publishes. A kind's
+// descriptor names the keys it reads and writes (plugin_author.hpp: reads(), writes()), so
+// loading a machine checks that every read has a writer upstream on every path.
 #include <Eigen/Geometry>
 #include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "projtour/blackboard.hpp"
 #include "projtour/depth_frame.hpp"
+#include "projtour/drivers.hpp"
 #include "projtour/geometry.hpp"
+#include "projtour/model_cloud.hpp"
 
-namespace projtour::keys {
+namespace projtour {
 
-// PoseEstimate2D: the localization service's estimate of T_map_base, every tick.
-inline const std::string kLocalization = "localization.estimate";
-// bool: true while the localization service considers itself converged.
-inline const std::string kLocalizationConverged = "localization.converged";
-// double: widen the particle cloud by this many metres (relocalize sets it, the service clears).
-inline const std::string kLocalizationWiden = "localization.widen_m";
+// navigate: the path it planned last (replanning writes it again) and, once arrived, the
+// estimate it stopped on.
+struct NavigateResult {
+  std::vector<Pose2D> planned_path;
+  std::optional<PoseEstimate2D> arrived_at;
+};
 
-// LaserScan: the newest scan, republished by the localization service (which takes the laser's
-// scans) so behaviours can look for obstacles.
-inline const std::string kLaserScan = "localization.scan";
-
-// std::vector<Pose2D>: the last path navigate planned (for tour.png).
-inline const std::string kPlannedPath = "target.navigate.path";
-// std::shared_ptr<const DepthFrame>: the frame capture took.
-inline const std::string kDepthFrame = "target.capture.frame";
-// Eigen::Isometry3d: align's initial guess and result.
-inline const std::string kTCameraModelGuess = "target.align.T_camera_model_guess";
-inline const std::string kTCameraModel = "target.align.T_camera_model";
+// capture: the frame, stamped with where the camera was when it was taken. Align uses these,
+// not the joints and base at align time, which may have moved since.
+struct CapturedFrame {
+  DepthFrame frame;
+  JointAngles joints;            // measured at capture
+  PoseEstimate2D base_estimate;  // T_map_base estimate at capture
+};
 
 struct AlignQuality {
   std::string method;
@@ -38,21 +39,45 @@ struct AlignQuality {
   double inlier_fraction = 0.0;
   double rmse_mm = 0.0;
 };
-// AlignQuality of the last alignment.
-inline const std::string kAlignQuality = "target.align.quality";
 
-// std::array<Eigen::Vector2d, 4>: projector pixels chosen for the content corners, from the
-// guess alone and from the aligned pose (the executor asks the ground truth about both).
-inline const std::string kPixelsBeforeAlign = "target.project.pixels_before_align";
-inline const std::string kPixelsAfterAlign = "target.project.pixels_after_align";
-// double: seconds of content actually shown for this target.
-inline const std::string kProjectedSeconds = "target.project.projected_s";
+// align: the guess it started from, the pose when the fit is good enough to use (absent when
+// it is not), how good the fit was, the model it fitted and the joints the pose is valid at.
+struct AlignResult {
+  Eigen::Isometry3d T_camera_model_guess = Eigen::Isometry3d::Identity();
+  std::optional<Eigen::Isometry3d> T_camera_model;
+  std::optional<AlignQuality> quality;  // absent when too few points were there to fit
+  std::shared_ptr<const ModelCloud> model;
+  JointAngles joints;
+};
 
-// long long: index of the target to visit next (set by next; the for_each reads it).
-inline const std::string kNextTargetIndex = "tour.next_target_index";
-// std::vector<std::string>: ids of the targets whose visit is over (projected or skipped), in
-// the order they ended. The executor appends when a visit ends (and restores it from a
-// checkpoint); next appends the target it leaves. next never picks a target listed here.
-inline const std::string kDoneTargets = "tour.done_targets";
+using ProjectorQuad = std::array<Eigen::Vector2d, 4>;
 
-}  // namespace projtour::keys
+// project: how long the content was shown, and the projector pixels its corners went to from
+// the guess alone and from the (last tracked) aligned pose, for the report's error figures.
+struct ProjectResult {
+  std::optional<double> shown_s;  // absent until the content went up
+  std::optional<ProjectorQuad> pixels_before_align;
+  std::optional<ProjectorQuad> pixels_after_align;
+  std::optional<Eigen::Isometry3d> T_camera_model_tracked;  // when tracking moved the pose
+};
+
+namespace keys {
+
+// The localization service's estimate of T_map_base, every tick.
+inline constexpr Key<PoseEstimate2D> kLocalization{"localization.estimate", KeyScope::tour,
+                                                   "PoseEstimate2D"};
+// True while the localization service considers itself converged.
+inline constexpr Key<bool> kLocalizationConverged{"localization.converged", KeyScope::tour, "bool"};
+// Widen the particle cloud by this many metres (relocalize sets it, the service takes it).
+inline constexpr Key<double> kLocalizationWiden{"localization.widen_m", KeyScope::tour, "double"};
+// The newest scan, republished by the localization service (which takes the laser's scans) so
+// behaviours can look for obstacles.
+inline constexpr Key<LaserScan> kLaserScan{"localization.scan", KeyScope::tour, "LaserScan"};
+
+inline constexpr Key<NavigateResult> kNavigate{"navigate", KeyScope::visit, "NavigateResult"};
+inline constexpr Key<CapturedFrame> kCapture{"capture", KeyScope::visit, "CapturedFrame"};
+inline constexpr Key<AlignResult> kAlign{"align", KeyScope::visit, "AlignResult"};
+inline constexpr Key<ProjectResult> kProject{"project", KeyScope::visit, "ProjectResult"};
+
+}  // namespace keys
+}  // namespace projtour

@@ -34,6 +34,20 @@ typedef struct projtour_param_desc {
   const char* description;
 } projtour_param_desc;
 
+/* What a kind does with a blackboard key (projtour::Key<T>: name and type). The host checks,
+ * when it loads a machine, that every PROJTOUR_KEY_READ has a writer upstream on every path. */
+typedef enum projtour_key_access {
+  PROJTOUR_KEY_READ = 1,          /* needs the value: a writer must come first */
+  PROJTOUR_KEY_READ_OPTIONAL = 2, /* uses the value when there is one */
+  PROJTOUR_KEY_WRITE = 3
+} projtour_key_access;
+
+typedef struct projtour_key_desc {
+  const char* name; /* "align", "localization.estimate" */
+  const char* type; /* "AlignResult": readers and writers of one name must agree */
+  int32_t access;   /* projtour_key_access */
+} projtour_key_desc;
+
 /* create(): params is a `const projtour::Params*` already checked against the schema; run is a
  * `const projtour::RunContext*`. Returns the new object (projtour::Behaviour*,
  * projtour::Driver*, projtour::Service* by family) or NULL with a message in error. */
@@ -57,6 +71,8 @@ typedef struct projtour_kind_desc {
   projtour_create_fn create;
   projtour_destroy_fn destroy;
   projtour_validate_fn validate; /* may be NULL */
+  const projtour_key_desc* keys; /* the blackboard keys it reads and writes; may be NULL */
+  uint32_t key_count;
 } projtour_kind_desc;
 
 typedef struct projtour_plugin_desc {

@@ -17,6 +17,7 @@
 #include <exception>
 
 #include "projtour/behaviour.hpp"
+#include "projtour/blackboard.hpp"
 #include "projtour/context.hpp"
 #include "projtour/drivers.hpp"
 #include "projtour/params.hpp"
@@ -86,7 +87,9 @@ constexpr projtour_kind_desc behaviour_kind(const char* name, const char* descri
           static_cast<uint32_t>(NO),
           &plugin_detail::create<Behaviour, T>,
           &plugin_detail::destroy<Behaviour>,
-          validate};
+          validate,
+          nullptr,
+          0};
 }
 
 template <typename T, size_t NO>
@@ -102,7 +105,9 @@ constexpr projtour_kind_desc behaviour_kind(const char* name, const char* descri
           static_cast<uint32_t>(NO),
           &plugin_detail::create<Behaviour, T>,
           &plugin_detail::destroy<Behaviour>,
-          nullptr};
+          nullptr,
+          nullptr,
+          0};
 }
 
 // `interface`: "base" | "laser" | "pan_tilt" | "depth_camera" | "projector".
@@ -121,7 +126,9 @@ constexpr projtour_kind_desc driver_kind(const char* name, const char* interface
           0,
           &plugin_detail::create<Driver, T>,
           &plugin_detail::destroy<Driver>,
-          validate};
+          validate,
+          nullptr,
+          0};
 }
 
 template <typename T, size_t NP>
@@ -139,7 +146,33 @@ constexpr projtour_kind_desc service_kind(const char* name, const char* role,
           0,
           &plugin_detail::create<Service, T>,
           &plugin_detail::destroy<Service>,
-          validate};
+          validate,
+          nullptr,
+          0};
+}
+
+// The blackboard keys a kind uses, for its descriptor:
+//   const projtour_key_desc kAlignKeys[] = {projtour::reads(keys::kCapture),
+//                                           projtour::writes(keys::kAlign)};
+//   projtour::with_keys(projtour::behaviour_kind<Align>(...), kAlignKeys)
+template <typename T>
+constexpr projtour_key_desc reads(const Key<T>& key) {
+  return {key.name, key.type, PROJTOUR_KEY_READ};
+}
+template <typename T>
+constexpr projtour_key_desc reads_if_present(const Key<T>& key) {
+  return {key.name, key.type, PROJTOUR_KEY_READ_OPTIONAL};
+}
+template <typename T>
+constexpr projtour_key_desc writes(const Key<T>& key) {
+  return {key.name, key.type, PROJTOUR_KEY_WRITE};
+}
+template <size_t NK>
+constexpr projtour_kind_desc with_keys(projtour_kind_desc kind,
+                                       const projtour_key_desc (&keys)[NK]) {
+  kind.keys = keys;
+  kind.key_count = static_cast<uint32_t>(NK);
+  return kind;
 }
 
 }  // namespace projtour

@@ -26,6 +26,16 @@ class PluginLibrary;  // an open dlopen handle
 enum class Family { behaviour, driver, service };
 const char* to_string(Family family);
 
+enum class KeyAccess { read, read_if_present, write };
+const char* to_string(KeyAccess access);
+
+// One blackboard key a kind declares (plugin_abi.h projtour_key_desc).
+struct KeyUse {
+  std::string name;
+  std::string type;
+  KeyAccess access = KeyAccess::read;
+};
+
 struct KindInfo {
   std::string name;
   Family family = Family::behaviour;
@@ -33,6 +43,7 @@ struct KindInfo {
   std::string description;
   std::vector<ParamSpec> params;
   std::vector<std::string> outcomes;  // declared; "failed" and "cancelled" are implicit
+  std::vector<KeyUse> keys;           // blackboard keys read and written
   std::string plugin_name;
   std::string plugin_version;
   std::filesystem::path library;

@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <vector>
 
+#include "projtour/model_cloud.hpp"
+
 namespace projtour {
 
 struct TriangleMesh {
@@ -14,13 +16,6 @@ struct TriangleMesh {
 // PLY or OFF with faces (PCL I/O for PLY). Throws std::runtime_error naming the file when it
 // cannot be read or holds no triangles.
 TriangleMesh load_mesh(const std::filesystem::path& file);
-
-// Points with unit normals, as registration wants them.
-struct ModelCloud {
-  std::vector<Eigen::Vector3f> points;
-  std::vector<Eigen::Vector3f> normals;
-  float bounding_radius_m = 0.0f;  // about the model origin
-};
 
 // The model a robot aligns: a mesh (PLY/OFF with faces) is resampled uniformly over its surface
 // at about `spacing_m`; a point cloud (PCD, or PLY without faces) keeps its points and gets
