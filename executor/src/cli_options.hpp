@@ -24,52 +24,55 @@ bool parse_whole(const std::string& text, T& out) {
 
 inline CLI::Option* add_uint64(CLI::App& app, const std::string& name,
                                std::function<void(std::uint64_t)> set,
-                               const std::string& description) {
-  return app.add_option_function<std::string>(
-      name,
-      [name, set](const std::string& text) {
-        std::uint64_t value = 0;
-        if (!parse_whole(text, value)) {
-          throw CLI::ValidationError(
-              name, "expects an integer from 0 to 18446744073709551615, got \"" + text + "\"");
-        }
-        set(value);
-      },
-      description);
+                               const std::string& type_name) {
+  return app
+      .add_option_function<std::string>(
+          name,
+          [name, set](const std::string& text) {
+            std::uint64_t value = 0;
+            if (!parse_whole(text, value)) {
+              throw CLI::ValidationError(
+                  name, "expects an integer from 0 to 18446744073709551615, got \"" + text + "\"");
+            }
+            set(value);
+          })
+      ->type_name(type_name);
 }
 
 inline CLI::Option* add_int(CLI::App& app, const std::string& name, std::function<void(int)> set,
-                            const std::string& description) {
-  return app.add_option_function<std::string>(
-      name,
-      [name, set](const std::string& text) {
-        int value = 0;
-        if (!parse_whole(text, value)) {
-          throw CLI::ValidationError(name, "expects an integer, got \"" + text + "\"");
-        }
-        set(value);
-      },
-      description);
+                            const std::string& type_name) {
+  return app
+      .add_option_function<std::string>(name,
+                                        [name, set](const std::string& text) {
+                                          int value = 0;
+                                          if (!parse_whole(text, value)) {
+                                            throw CLI::ValidationError(
+                                                name, "expects an integer, got \"" + text + "\"");
+                                          }
+                                          set(value);
+                                        })
+      ->type_name(type_name);
 }
 
 // A finite double; `check` returns an error text for a value out of the option's range.
 inline CLI::Option* add_finite(CLI::App& app, const std::string& name,
                                std::function<void(double)> set,
                                std::function<std::string(double)> check,
-                               const std::string& description) {
-  return app.add_option_function<std::string>(
-      name,
-      [name, set, check](const std::string& text) {
-        double value = 0.0;
-        if (!parse_whole(text, value) || !std::isfinite(value)) {
-          throw CLI::ValidationError(name, "expects a finite number, got \"" + text + "\"");
-        }
-        if (const std::string problem = check ? check(value) : ""; !problem.empty()) {
-          throw CLI::ValidationError(name, problem);
-        }
-        set(value);
-      },
-      description);
+                               const std::string& type_name) {
+  return app
+      .add_option_function<std::string>(
+          name,
+          [name, set, check](const std::string& text) {
+            double value = 0.0;
+            if (!parse_whole(text, value) || !std::isfinite(value)) {
+              throw CLI::ValidationError(name, "expects a finite number, got \"" + text + "\"");
+            }
+            if (const std::string problem = check ? check(value) : ""; !problem.empty()) {
+              throw CLI::ValidationError(name, problem);
+            }
+            set(value);
+          })
+      ->type_name(type_name);
 }
 
 }  // namespace projtour::cli

@@ -246,6 +246,9 @@ std::string string_at(const Json& object, const char* key) {
 
 double number_at(const Json& object, const char* key) {
   const Json& v = required(object, key);
+  // dump_json writes a NaN or infinite figure as null; reading it back as NaN lets a checkpoint
+  // holding one resume, and writes the same null again.
+  if (v.is_null()) return std::numeric_limits<double>::quiet_NaN();
   if (!v.is_number()) field_error(key, std::string("is not a number but ") + v.type_name());
   return v.get<double>();
 }

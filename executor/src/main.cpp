@@ -56,14 +56,16 @@ projtour::RunOptions parse_options(int argc, char** argv, int options) {
   if (options & kMission) app.add_option("mission", mission, "MISSION.yaml");
   if (options & kDryRun) app.add_flag("--dry-run", run.dry_run);
   if (options & kWorld) {
-    app.add_option_function<std::string>("--world", [&](const std::string& w) { run.world = w; });
+    app.add_option_function<std::string>("--world", [&](const std::string& w) { run.world = w; })
+        ->type_name("W.yaml");
   }
   if (options & kSeed) {
     projtour::cli::add_uint64(
         app, "--seed", [&](std::uint64_t s) { run.seed = s; }, "N");
   }
   if (options & kOut) {
-    app.add_option_function<std::string>("--out", [&](const std::string& o) { run.out = o; });
+    app.add_option_function<std::string>("--out", [&](const std::string& o) { run.out = o; })
+        ->type_name("DIR");
   }
   if (options & kResume) app.add_flag("--resume", run.resume);
   if (options & kSpeed) {
@@ -77,7 +79,7 @@ projtour::RunOptions parse_options(int argc, char** argv, int options) {
         [](double s) { return s <= 0 ? "must be > 0" : ""; }, "S");
   }
   std::vector<std::string> plugin_paths;
-  app.add_option("--plugin-path", plugin_paths, "DIR")->allow_extra_args(false);
+  app.add_option("--plugin-path", plugin_paths)->type_name("DIR")->allow_extra_args(false);
   for (CLI::Option* option : app.get_options()) {
     if (option->get_name() != "--plugin-path") {
       option->multi_option_policy(CLI::MultiOptionPolicy::Throw);

@@ -415,6 +415,22 @@ TEST_F(Command, ResumeWithoutCheckpointIsInvalidInput) {
   EXPECT_NE(err().find("cannot resume"), std::string::npos) << err();
 }
 
+TEST_F(Command, ResumeFromAMalformedCheckpointNamesTheFileAndByte) {
+  const fs::path run = dir_ / "run";
+  fs::create_directories(run);
+  std::ofstream(run / "checkpoint.json")
+      << R"({"mission": "scripted-tour", "seed": 1, "seed": 2, "mission_s": 0.0, "done": [], )"
+      << R"("current_target": null})";
+  EXPECT_EQ(
+      projtour("run " + kSource + "/missions/scripted_tour.yaml --resume --out " + run.string()),
+      2);
+  EXPECT_NE(err().find("cannot resume: " + (run / "checkpoint.json").string() +
+                       ": malformed JSON at byte 46: duplicate key \"seed\""),
+            std::string::npos)
+      << err();
+  EXPECT_FALSE(fs::exists(run / "events.jsonl"));
+}
+
 // The scripted kinds through dlopen and the registry, driven in-process: what the plugin
 // declares is what the machine is checked against, and its behaviours run the tour.
 TEST(ScriptedPlugin, RunsAMachineThroughTheRegistry) {

@@ -186,6 +186,19 @@ TEST(TargetRecordJson, WritesDesignOrderAndReadsBack) {
   EXPECT_FALSE(back.measurements.projection_error_px->before_align.has_value());
 }
 
+// A figure that came out NaN is written as null and must not stop a resume.
+TEST(TargetRecordJson, NonFiniteFiguresRoundTripAsNull) {
+  TargetRecord r = full_record();
+  r.measurements.align->rmse_mm = std::nan("");
+  r.measurements.projection_error_mm->after_align = std::numeric_limits<double>::infinity();
+  const std::string text = dump_json(Json(r));
+  EXPECT_NE(text.find("\"rmse_mm\": null"), std::string::npos) << text;
+  const TargetRecord back = parse_json(text, "record").get<TargetRecord>();
+  EXPECT_TRUE(std::isnan(back.measurements.align->rmse_mm));
+  EXPECT_TRUE(std::isnan(*back.measurements.projection_error_mm->after_align));
+  EXPECT_EQ(dump_json(Json(back)), text);
+}
+
 TEST(TargetRecordJson, RejectsFieldsOfTheWrongTypeOrUnknown) {
   const auto error = [](const std::string& text) -> std::string {
     try {

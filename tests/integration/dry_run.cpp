@@ -43,9 +43,13 @@ std::string read_text(const fs::path& file) {
 
 std::vector<std::string> dry_run_args(const fs::path& mission, const fs::path& world,
                                       const fs::path& out, const std::vector<std::string>& extra) {
-  std::vector<std::string> args = {
-      "run", mission.string(), "--dry-run",  "--world",       world.string(),           "--speed",
-      "0",   "--out",          out.string(), "--plugin-path", PROJTOUR_PLUGIN_BUILD_DIR};
+  std::vector<std::string> args = {"run",        mission.string(), "--dry-run",
+                                   "--world",    world.string(),   "--out",
+                                   out.string(), "--plugin-path",  PROJTOUR_PLUGIN_BUILD_DIR};
+  // --speed may be given once: `extra`'s own replaces the default.
+  if (std::find(extra.begin(), extra.end(), "--speed") == extra.end()) {
+    args.insert(args.end(), {"--speed", "0"});
+  }
   args.insert(args.end(), extra.begin(), extra.end());
   return args;
 }

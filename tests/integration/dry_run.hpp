@@ -19,7 +19,8 @@ namespace fs = std::filesystem;
 fs::path data_dir();  // tests/integration/data
 std::string read_text(const fs::path& file);
 
-// A dry run of `mission` in `world` writing to `out`; extra arguments (--seed, --resume) after.
+// A dry run of `mission` in `world` writing to `out` at --speed 0 unless `extra` (--seed,
+// --resume, --speed) gives another.
 std::vector<std::string> dry_run_args(const fs::path& mission, const fs::path& world,
                                       const fs::path& out,
                                       const std::vector<std::string>& extra = {});

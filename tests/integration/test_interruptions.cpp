@@ -43,9 +43,10 @@ struct KillMoment {
                 kTargets[target_index] + "\"",
             after, speed};
   }
-  // Right after one event of the uninterrupted run (the same seed gives the same lines).
+  // Right after one event of the uninterrupted run (the same seed gives the same lines; the
+  // marker is the line as events.jsonl has it, so dump_json, not nlohmann's dump()).
   static KillMoment at_event(const Json& event) {
-    return {"after event " + event.dump(), event.dump(), 0ms, "0"};
+    return {"after event " + dump_json(event), dump_json(event), 0ms, "0"};
   }
 };
 
@@ -175,7 +176,7 @@ class Interruptions : public DryRunTest {
       const Json report = read_json(run / "report.json");
       read_json(run / "checkpoint.json");
       const auto& records = report.at("targets");
-      EXPECT_EQ(records.size(), kTargets.size()) << when << ": " << report.dump(2);
+      EXPECT_EQ(records.size(), kTargets.size()) << when << ": " << dump_json(report, 2);
       for (const std::string& id : kTargets) {
         int projected = 0;
         for (const StepOutcome& s : step_outcomes(events, id)) {

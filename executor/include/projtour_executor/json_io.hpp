@@ -41,6 +41,7 @@ void expect_object(const Json& value, const char* what);
 void reject_unknown(const Json& object, std::initializer_list<const char*> known);
 const Json& required(const Json& object, const char* key);
 std::string string_at(const Json& object, const char* key);
+// null (a non-finite double as dump_json writes it) reads as NaN.
 double number_at(const Json& object, const char* key);
 int int_at(const Json& object, const char* key);
 std::uint64_t uint64_at(const Json& object, const char* key);
