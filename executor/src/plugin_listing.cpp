@@ -83,6 +83,13 @@ void print_plugin_listing(const PluginRegistry& registry, std::ostream& out) {
           out, "outcomes",
           joined(kind->outcomes) + " (and " + kOutcomeFailed + ", " + kOutcomeCancelled + ")");
     }
+    for (const KeyAccess access : {KeyAccess::read, KeyAccess::read_if_present, KeyAccess::write}) {
+      std::vector<std::string> keys;
+      for (const KeyUse& k : kind->keys) {
+        if (k.access == access) keys.push_back(k.name + " (" + k.type + ")");
+      }
+      if (!keys.empty()) print_field(out, to_string(access), joined(keys));
+    }
   }
 }
 

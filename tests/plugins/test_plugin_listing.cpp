@@ -60,7 +60,9 @@ TEST(PluginListing, ShowsEveryKindWithParametersAndOutcomes) {
       "               label            string   \"hello\"     text carried in the outcome "
       "message\n"
       "               gain             number   (required)  a required number with no default\n"
-      "  outcomes     succeeded, timed_out (and failed, cancelled)\n";
+      "  outcomes     succeeded, timed_out (and failed, cancelled)\n"
+      "  reads        localization.estimate (PoseEstimate2D)\n"
+      "  writes       waited (double)\n";
   EXPECT_EQ(text, expected);
 }
 

@@ -180,7 +180,10 @@ INSTANTIATE_TEST_SUITE_P(
         MalformedCase{5, "kind \"fixture_malformed\": null create function"},
         MalformedCase{6,
                       "kind \"fixture_malformed\": parameter \"tolerance_m\": default \"north\" "
-                      "is not a number"}));
+                      "is not a number"},
+        MalformedCase{7,
+                      "kind \"fixture_malformed\": key \"capture\": unknown access 9 (expected 1 "
+                      "read, 2 read if present or 3 write)"}));
 
 TEST(PluginLoader, DuplicateKindNamesBothFiles) {
   PluginRegistry registry;
@@ -205,7 +208,7 @@ TEST(PluginLoader, LoadDirectoriesCollectsEveryFailureInFileOrder) {
       dir + "/libpt_fixture_malformed_1.so", dir + "/libpt_fixture_malformed_2.so",
       dir + "/libpt_fixture_malformed_3.so", dir + "/libpt_fixture_malformed_4.so",
       dir + "/libpt_fixture_malformed_5.so", dir + "/libpt_fixture_malformed_6.so",
-      dir + "/libpt_fixture_not_plugin.so"};
+      dir + "/libpt_fixture_malformed_7.so", dir + "/libpt_fixture_not_plugin.so"};
   EXPECT_EQ(failed_files, expected);
 
   std::vector<std::string> names;

@@ -49,7 +49,7 @@ const char* to_string(KeyAccess access) {
     case KeyAccess::read:
       return "reads";
     case KeyAccess::read_if_present:
-      return "reads if present";
+      return "may read";
     case KeyAccess::write:
       return "writes";
   }
