@@ -197,9 +197,9 @@ void Executor::request_leaf_end(Outcome outcome) {
 // Transitions run one request at a time from a queue, so a chain of states that end at once
 // (every start throwing, say) is a bounded loop here rather than a recursion.
 void Executor::process_requests() {
-  std::size_t processed = 0;
+  const std::size_t transitions_before = transition_count_;
   while (!requests_.empty() && !finished_) {
-    if (++processed > kMaxTransitionsPerTick) {
+    if (transition_count_ - transitions_before > kMaxTransitionsPerTick) {
       const std::string where = active_.empty() ? machine_.root().path : active_.back()->path;
       requests_.clear();
       abort_tour(where + ": more than " + std::to_string(kMaxTransitionsPerTick) +

@@ -475,6 +475,38 @@ class TargetKeyProbe : public Behaviour {
   std::vector<bool>* seen_;
 };
 
+class ThrowsOnStart : public Behaviour {
+ public:
+  void start(Context&) override { throw std::runtime_error("no device"); }
+  std::optional<Outcome> tick(Context&) override { return Outcome{"succeeded", ""}; }
+};
+
+// States that end as they start never reach a tick: the transitions used to recurse (one stack
+// frame chain per transition) up to a guard; they are now queued requests processed in a
+// bounded loop, which ends the tour with the reason.
+TEST(Transitions, StatesThatEndAtOnceForeverAreABoundedLoopNotARecursion) {
+  Harness h;
+  h.catalog.add("throws", {"succeeded"}, {}, [](const Params&, const RunContext&) {
+    return std::make_shared<ThrowsOnStart>();
+  });
+  h.load(R"(initial: a
+states:
+  a:
+    behaviour: throws
+    on: {succeeded: b, failed: b}
+  b:
+    behaviour: throws
+    on: {succeeded: a, failed: a}
+)");
+  h.build();
+  EXPECT_EQ(h.run(), TourOutcome::aborted);
+  EXPECT_NE(h.executor->abort_reason().find(
+                "more than 1000 transitions without a tick (a loop of states that end at once)"),
+            std::string::npos)
+      << h.executor->abort_reason();
+  EXPECT_EQ(h.executor->transition_count(), 1001u);
+}
+
 TEST(Transitions, TargetKeysClearedWhenAVisitStarts) {
   Harness h;
   std::vector<bool> seen;
