@@ -1,5 +1,6 @@
 # `cmake --install` into a temporary prefix, then the out-of-tree template plugin built against
-# that installation with find_package(projtour), then loaded by the installed core.
+# that installation with find_package(projtour COMPONENTS contract) (a behaviour and a driver
+# plugin), then loaded by the installed host.
 
 option(PROJTOUR_INSTALL_TEST_CLI
   "The install test also runs the installed `projtour plugins` (needs that subcommand)" ON)
