@@ -191,6 +191,36 @@ TEST_F(Command, InvalidMachineExitsTwoWithEveryProblemAndMovesNothing) {
   EXPECT_NE(err().find("nothing moved"), std::string::npos);
 }
 
+// project reads align's result; a machine that projects without aligning is refused at the
+// reading state's line before anything moves.
+TEST_F(Command, AStateReadingAKeyNobodyWritesIsRefusedAtItsLine) {
+  std::string machine = kLinearMachine;
+  const auto swap = [&machine](const std::string& from, const std::string& to) {
+    machine.replace(machine.find(from), from.size(), to);
+  };
+  swap("behaviour: scripted_project", "behaviour: project");
+  swap("params: {ticks: 3, outcomes: \"succeeded, off_screen, succeeded\"}", "params: {}");
+  const fs::path mission = write_mission(machine);
+  EXPECT_EQ(projtour("validate " + mission.string()), 2);
+  EXPECT_NE(err().find(mission.string() +
+                       ":32:9: machine.states.visit.states.show.behaviour: behaviour \"project\" "
+                       "reads \"align\" (AlignResult), which no state of the machine and no "
+                       "service writes"),
+            std::string::npos)
+      << err();
+}
+
+TEST_F(Command, GraphDrawsTheDataEdgesOfTheDefaultMachine) {
+  ASSERT_EQ(projtour("graph " + kSource + "/missions/demo_tour.yaml"), 0) << err();
+  EXPECT_NE(out().find("\"tour/visit/align\" -> \"tour/visit/project\" [label=\"align\", "
+                       "style=dotted"),
+            std::string::npos)
+      << out();
+  EXPECT_NE(out().find("\"tour/visit/capture\" -> \"tour/visit/align\" [label=\"capture\""),
+            std::string::npos)
+      << out();
+}
+
 TEST_F(Command, ValidateAcceptsAGoodMission) {
   EXPECT_EQ(projtour("validate " + write_mission(kLinearMachine).string()), 0) << err();
   EXPECT_NE(out().find("ok (3 targets, 2 behaviour states)"), std::string::npos) << out();

@@ -486,9 +486,8 @@ class ThrowsOnStart : public Behaviour {
 // bounded loop, which ends the tour with the reason.
 TEST(Transitions, StatesThatEndAtOnceForeverAreABoundedLoopNotARecursion) {
   Harness h;
-  h.catalog.add("throws", {"succeeded"}, {}, [](const Params&, const RunContext&) {
-    return std::make_shared<ThrowsOnStart>();
-  });
+  h.catalog.add("throws", {"succeeded"}, {},
+                [](const Params&, const RunContext&) { return std::make_shared<ThrowsOnStart>(); });
   h.load(R"(initial: a
 states:
   a:
