@@ -119,6 +119,7 @@ Context Executor::make_context(const StateSpec* leaf) const {
   ctx.params = leaf != nullptr ? &leaf->params : nullptr;
   ctx.cancel = &cancel_;
   ctx.state_path = leaf != nullptr ? leaf->path : "";
+  ctx.state_timer = leaf != nullptr ? &leaf_timer_ : nullptr;
   return ctx;
 }
 
@@ -216,8 +217,8 @@ void Executor::enter_leaf(const StateSpec& state) {
   active_.push_back(&state);
   emit(EventType::enter, state);
   leaf_behaviour_ = behaviours_.at(state.path).get();
+  leaf_timer_.restart(clock_.now_s());
   leaf_ctx_ = make_context(&state);
-  leaf_elapsed_s_ = 0.0;
   try {
     leaf_behaviour_->start(leaf_ctx_);
   } catch (const std::exception& e) {
@@ -497,7 +498,6 @@ bool Executor::step() {
   } catch (...) {
     outcome = Outcome{kOutcomeFailed, "unknown exception"};
   }
-  leaf_elapsed_s_ += options_.tick_s;
 
   if (cancel_.requested()) {
     if (outcome) {
@@ -519,7 +519,7 @@ bool Executor::step() {
 
   const StateSpec* leaf = active_.back();
   if (!outcome && !driver_failure_.empty()) outcome = Outcome{kOutcomeFailed, driver_failure_};
-  if (!outcome && leaf->timeout_s > 0 && leaf_elapsed_s_ >= leaf->timeout_s - 1e-9) {
+  if (!outcome && leaf->timeout_s > 0 && leaf_timer_.elapsed_s(now_s) >= leaf->timeout_s - 1e-9) {
     outcome = Outcome{kOutcomeTimeout, "no outcome within " + Json(leaf->timeout_s).dump() + " s"};
   }
   if (outcome) {
@@ -540,12 +540,14 @@ TourOutcome Executor::run_to_end() {
 void Executor::pause() {
   if (paused_ || finished_ || leaf_behaviour_ == nullptr) return;
   paused_ = true;
+  leaf_timer_.pause(clock_.now_s());
   leaf_behaviour_->pause(leaf_ctx_);
 }
 
 void Executor::resume() {
   if (!paused_) return;
   paused_ = false;
+  leaf_timer_.resume(clock_.now_s());
   if (leaf_behaviour_ != nullptr) leaf_behaviour_->resume(leaf_ctx_);
 }
 

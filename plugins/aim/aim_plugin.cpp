@@ -81,8 +81,8 @@ class Aim : public Behaviour {
       reached_at_s_.reset();
       return std::nullopt;
     }
-    if (!reached_at_s_) reached_at_s_ = ctx.now_s();
-    if (ctx.now_s() - *reached_at_s_ < settle_s_) return std::nullopt;
+    if (!reached_at_s_) reached_at_s_ = ctx.state_elapsed_s();
+    if (ctx.state_elapsed_s() - *reached_at_s_ < settle_s_) return std::nullopt;
     return Outcome{"succeeded", "aimed at " + ctx.target->id + ": " + fmt_angles(goal_)};
   }
 
@@ -109,7 +109,7 @@ class Aim : public Behaviour {
   HeadKinematics kinematics_;
   JointAngles goal_;
   std::optional<Outcome> early_;
-  std::optional<double> reached_at_s_;
+  std::optional<double> reached_at_s_;  // state time the head was first seen at its goal
 };
 
 void check_params(const Params& params) {

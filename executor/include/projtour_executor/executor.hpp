@@ -124,7 +124,7 @@ class Executor {
   std::vector<const StateSpec*> active_;  // root ... leaf
   Behaviour* leaf_behaviour_ = nullptr;
   Context leaf_ctx_;
-  double leaf_elapsed_s_ = 0.0;  // mission time in the leaf, pauses excluded
+  StateTimer leaf_timer_;  // mission time in the leaf, pauses excluded (ctx.state_elapsed_s())
   CancelToken cancel_;
   bool started_ = false;
   bool paused_ = false;

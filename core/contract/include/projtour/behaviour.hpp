@@ -27,6 +27,7 @@ class Behaviour {
   virtual void stop(Context& ctx);
   // Cancel is cooperative: ctx.cancel_requested() turns true and tick should return
   // "cancelled" soon (it may take several ticks).
+  // No tick between pause and resume; ctx.state_elapsed_s() stands still meanwhile.
   virtual void pause(Context& ctx);
   virtual void resume(Context& ctx);
 };
