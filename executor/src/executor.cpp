@@ -484,6 +484,17 @@ bool Executor::step() {
       driver_failure_ = "service " + services_[i].role + " failed: " + e.what();
     }
   }
+  if (paused_ && cancel_requested_ && leaf_behaviour_ != nullptr) {
+    // The paused behaviour has made itself safe (projector blank, head holding, base still).
+    // Resuming it only to cancel it would re-show its last frame or re-command its head goal
+    // for a tick, so it is stopped as it stands: stop() is the one call every behaviour must
+    // handle in any state. No grace period either: nothing is running that could finish.
+    paused_ = false;
+    cancel_.request();
+    leave_leaf(Outcome{kOutcomeCancelled, "cancelled while paused"});
+    interrupt();
+    return !finished_;
+  }
   if (paused_ || leaf_behaviour_ == nullptr) return !finished_;
 
   if (cancel_requested_ && !cancel_.requested()) {
@@ -553,7 +564,6 @@ void Executor::resume() {
 
 void Executor::request_cancel() {
   if (finished_) return;
-  resume();
   cancel_requested_ = true;
   if (!started_) {
     started_ = true;

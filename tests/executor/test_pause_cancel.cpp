@@ -1,5 +1,5 @@
 // Pauses and cancels through the executor, with scripted behaviours: state time leaves pauses
-// out.
+// out, and a cancelled paused state is stopped as it stands, never resumed or ticked.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -62,6 +62,40 @@ TEST(PauseCancel, StateElapsedLeavesPausesOut) {
   EXPECT_EQ(h.run(), TourOutcome::completed);
   EXPECT_EQ(log, (std::vector<std::string>{"start 0", "tick 1", "tick 2", "tick 3", "tick 4",
                                            "pause 4", "resume 4", "tick 5", "tick 6", "stop 6"}));
+}
+
+// Regression (issue 12, "cancel while paused calls resume() first"): the paused behaviour is
+// stopped without a resume and without another tick, at once (no grace period), and the tour
+// is interrupted with the visit unrecorded, as a cancel of a running state would leave it.
+TEST(PauseCancel, CancelWhilePausedStopsWithoutResumeOrTick) {
+  Harness h;
+  h.script("aim", "succeeded", 1000);
+  h.load_default();
+  h.build();
+  ASSERT_TRUE(h.step_until("visit/aim", "rabbit"));
+  for (int i = 0; i < 3; ++i) h.executor->step();
+  h.executor->pause();
+  for (int i = 0; i < 20; ++i) h.executor->step();
+  const ScriptedBehaviour& aim = h.behaviour("visit/aim");
+  const int ticks_before = aim.ticks_seen();
+  const double cancelled_at_s = h.clock.now_s();
+  h.executor->request_cancel();
+  EXPECT_EQ(h.run(), TourOutcome::interrupted);
+  ASSERT_SEQUENCE(h.recorder,
+                  seq({{"enter tour", "enter visit @rabbit"},
+                       leaf("visit/navigate", "succeeded", "visit/aim", "rabbit"),
+                       {"enter visit/aim @rabbit", "outcome visit/aim cancelled @rabbit",
+                        "exit visit/aim @rabbit", "exit visit @rabbit", "exit tour"}}));
+  EXPECT_EQ(h.recorder.events[h.recorder.events.size() - 4].message, "cancelled while paused");
+  EXPECT_EQ(aim.pauses(), 1);
+  EXPECT_EQ(aim.resumes(), 0);
+  EXPECT_EQ(aim.ticks_seen(), ticks_before);
+  EXPECT_EQ(aim.stops(), 1);
+  EXPECT_NEAR(h.clock.now_s() - cancelled_at_s, 0.05, 1e-9);  // the very next step
+  EXPECT_FALSE(h.executor->paused());
+  EXPECT_TRUE(h.executor->records().empty());
+  EXPECT_EQ(h.executor->current_target(), std::optional<std::size_t>(0));
+  EXPECT_TRUE(h.executor->ignored_cancel().empty());
 }
 
 }  // namespace

@@ -69,7 +69,8 @@ class Executor {
   void pause();
   void resume();
   bool paused() const { return paused_; }
-  // Cooperative: the behaviour sees ctx.cancel_requested() and gets cancel_grace_s to return.
+  // Cooperative: the behaviour sees ctx.cancel_requested() and gets cancel_grace_s to return. A
+  // paused behaviour is stopped at the next step without being resumed.
   void request_cancel();
 
   bool finished() const { return finished_; }
