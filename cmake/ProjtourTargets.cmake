@@ -11,9 +11,26 @@ function(projtour_target_options target)
   endif()
 endfunction()
 
-if(PROJTOUR_SANITIZE)
+# PROJTOUR_SANITIZER is the normalised choice ("", address or thread) for the rest of the build
+# to test: "thread" is a string, which if(PROJTOUR_SANITIZE) would read as a false variable name.
+string(TOLOWER "${PROJTOUR_SANITIZE}" _projtour_sanitize)
+if(_projtour_sanitize MATCHES "^(thread|tsan)$")
+  set(PROJTOUR_SANITIZER thread)
+elseif(_projtour_sanitize MATCHES "^(address|asan|on|yes|true|y|1)$")
+  # The bool values: the option was a bool meaning this before thread was offered.
+  set(PROJTOUR_SANITIZER address)
+elseif(_projtour_sanitize MATCHES "^(off|no|false|n|0|)$")
+  set(PROJTOUR_SANITIZER "")
+else()
+  message(FATAL_ERROR "PROJTOUR_SANITIZE=${PROJTOUR_SANITIZE}: use OFF, address (or ON) or thread")
+endif()
+
+if(PROJTOUR_SANITIZER STREQUAL "address")
   add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
   add_link_options(-fsanitize=address,undefined)
+elseif(PROJTOUR_SANITIZER STREQUAL "thread")
+  add_compile_options(-fsanitize=thread -fno-omit-frame-pointer)
+  add_link_options(-fsanitize=thread)
 endif()
 
 # projtour_add_library(COMPONENT SOURCES a.cpp ... [PUBLIC lib ...] [PRIVATE lib ...])

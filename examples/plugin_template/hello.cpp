@@ -14,29 +14,23 @@ class Hello : public projtour::Behaviour {
       : duration_s_(params.number("duration_s")), greeting_(params.string("greeting")) {}
 
   void start(projtour::Context& ctx) override {
-    started_s_ = ctx.now_s();
-    paused_s_ = 0.0;
+    started_s_ = ctx.state_elapsed_s();
     ctx.log().info(greeting_ + " (" + ctx.state_path + ")");
   }
 
   std::optional<projtour::Outcome> tick(projtour::Context& ctx) override {
     // Cancel is cooperative: answer it on the next tick.
     if (ctx.cancel_requested()) return projtour::Outcome{projtour::kOutcomeCancelled, "cancelled"};
-    // Mission time only (never the system clock), so dry runs may run faster than real time.
-    if (ctx.now_s() - started_s_ - paused_s_ < duration_s_) return std::nullopt;
+    // Mission time only (never the system clock), so dry runs may run faster than real time;
+    // state time, which leaves pauses out, so a pause does not shorten the wait.
+    if (ctx.state_elapsed_s() - started_s_ < duration_s_) return std::nullopt;
     return projtour::Outcome{"succeeded", greeting_};
   }
-
-  // Time spent paused does not count towards the wait.
-  void pause(projtour::Context& ctx) override { pause_started_s_ = ctx.now_s(); }
-  void resume(projtour::Context& ctx) override { paused_s_ += ctx.now_s() - pause_started_s_; }
 
  private:
   double duration_s_;
   std::string greeting_;
   double started_s_ = 0.0;
-  double paused_s_ = 0.0;
-  double pause_started_s_ = 0.0;
 };
 
 // Checked when the mission is loaded, before anything moves.

@@ -112,6 +112,7 @@ Context Executor::make_context(const StateSpec* leaf) const {
   ctx.params = leaf != nullptr ? &leaf->params : nullptr;
   ctx.cancel = &cancel_;
   ctx.state_path = leaf != nullptr ? leaf->path : "";
+  ctx.state_timer = leaf != nullptr ? &leaf_timer_ : nullptr;
   return ctx;
 }
 
@@ -244,8 +245,8 @@ void Executor::enter_leaf(const StateSpec& state) {
   active_.push_back(&state);
   emit(EventType::enter, state);
   leaf_behaviour_ = behaviours_.at(state.path).get();
+  leaf_timer_.restart(clock_.now_s());
   leaf_ctx_ = make_context(&state);
-  leaf_elapsed_s_ = 0.0;
   leaf_entry_writes_ = run_.blackboard->writes();
   try {
     leaf_behaviour_->start(leaf_ctx_);
@@ -527,6 +528,17 @@ bool Executor::step() {
       driver_failure_ = "service " + services_[i].role + " failed: " + e.what();
     }
   }
+  if (paused_ && cancel_requested_ && leaf_behaviour_ != nullptr) {
+    // The paused behaviour has made itself safe (projector blank, head holding, base still).
+    // Resuming it only to cancel it would re-show its last frame or re-command its head goal
+    // for a tick, so it is stopped as it stands: stop() is the one call every behaviour must
+    // handle in any state. No grace period either: nothing is running that could finish.
+    paused_ = false;
+    cancel_.request();
+    leave_leaf(Outcome{kOutcomeCancelled, "cancelled while paused"});
+    interrupt();
+    return !finished_;
+  }
   if (paused_ || leaf_behaviour_ == nullptr) return !finished_;
 
   if (cancel_requested_ && !cancel_.requested()) {
@@ -541,7 +553,6 @@ bool Executor::step() {
   } catch (...) {
     outcome = Outcome{kOutcomeFailed, "unknown exception"};
   }
-  leaf_elapsed_s_ += options_.tick_s;
 
   if (cancel_.requested()) {
     if (outcome) {
@@ -563,7 +574,7 @@ bool Executor::step() {
 
   const StateSpec* leaf = active_.back();
   if (!outcome && !driver_failure_.empty()) outcome = Outcome{kOutcomeFailed, driver_failure_};
-  if (!outcome && leaf->timeout_s > 0 && leaf_elapsed_s_ >= leaf->timeout_s - 1e-9) {
+  if (!outcome && leaf->timeout_s > 0 && leaf_timer_.elapsed_s(now_s) >= leaf->timeout_s - 1e-9) {
     outcome =
         Outcome{kOutcomeTimeout, "no outcome within " + json_number_text(leaf->timeout_s) + " s"};
   }
@@ -586,18 +597,19 @@ TourOutcome Executor::run_to_end() {
 void Executor::pause() {
   if (paused_ || finished_ || leaf_behaviour_ == nullptr) return;
   paused_ = true;
+  leaf_timer_.pause(clock_.now_s());
   leaf_behaviour_->pause(leaf_ctx_);
 }
 
 void Executor::resume() {
   if (!paused_) return;
   paused_ = false;
+  leaf_timer_.resume(clock_.now_s());
   if (leaf_behaviour_ != nullptr) leaf_behaviour_->resume(leaf_ctx_);
 }
 
 void Executor::request_cancel() {
   if (finished_) return;
-  resume();
   cancel_requested_ = true;
   if (!started_) {
     started_ = true;

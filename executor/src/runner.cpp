@@ -4,11 +4,11 @@
 
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <csignal>
 #include <cstdio>
 #include <ctime>
 #include <functional>
+#include <future>
 #include <iostream>
 #include <mutex>
 #include <thread>
@@ -24,6 +24,7 @@
 #include "projtour_executor/report.hpp"
 #include "projtour_executor/summary_page.hpp"
 #include "projtour_executor/tour_picture.hpp"
+#include "projtour_executor/watchdog.hpp"
 
 namespace projtour {
 
@@ -113,6 +114,22 @@ class VisitToTruth : public ExecutorObserver {
   std::string visited_;
 };
 
+// How long the watchdog waits for the drivers' safe stops before it writes the report and ends
+// the process anyway (a safe_stop stuck behind the hung call must not keep the report unwritten).
+constexpr std::chrono::seconds kWatchdogSafeStopWait{2};
+
+// Safe-stops every driver from a thread of its own; false when they did not all return within
+// `wait`. The thread is left behind then, for the process exit to end.
+bool safe_stop_within(const DriverSet& drivers, std::chrono::seconds wait) {
+  auto done = std::make_shared<std::promise<void>>();
+  std::future<void> stopped = done->get_future();
+  std::thread([list = drivers.all(), done] {
+    for (const auto& d : list) d->safe_stop();
+    done->set_value();
+  }).detach();
+  return stopped.wait_for(wait) == std::future_status::ready;
+}
+
 class TargetDoneHook : public ExecutorObserver {
  public:
   explicit TargetDoneHook(std::function<void()> hook) : hook_(std::move(hook)) {}
@@ -120,68 +137,6 @@ class TargetDoneHook : public ExecutorObserver {
 
  private:
   std::function<void()> hook_;
-};
-
-// A behaviour whose tick never returns would leave the robot moving and the projector lit with
-// nothing in charge. The watchdog runs beside the tick loop; when one tick outlasts its limit
-// (wall time) it calls `on_hang` from its own thread, which must end the process.
-class TickWatchdog {
- public:
-  using HangHandler = std::function<void(const std::string& state, double limit_s)>;
-  explicit TickWatchdog(HangHandler on_hang)
-      : on_hang_(std::move(on_hang)), thread_([this] { watch(); }) {}
-  ~TickWatchdog() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      quit_ = true;
-    }
-    wake_.notify_all();
-    thread_.join();
-  }
-  void tick_started(const std::string& state, double limit_s) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    state_ = state;
-    limit_s_ = limit_s;
-    deadline_ = std::chrono::steady_clock::now() +
-                std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(limit_s));
-    armed_ = true;
-    wake_.notify_all();
-  }
-  void tick_finished() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    armed_ = false;
-  }
-
- private:
-  using Clock = std::chrono::steady_clock;
-  void watch() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    while (!quit_) {
-      if (!armed_) {
-        wake_.wait(lock);
-        continue;
-      }
-      if (Clock::now() < deadline_) {
-        wake_.wait_until(lock, deadline_);
-        continue;
-      }
-      const std::string state = state_;
-      const double limit_s = limit_s_;
-      lock.unlock();
-      on_hang_(state, limit_s);
-      return;
-    }
-  }
-
-  HangHandler on_hang_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  bool quit_ = false;
-  bool armed_ = false;
-  std::string state_;
-  double limit_s_ = 0.0;
-  Clock::time_point deadline_;
-  std::thread thread_;
 };
 
 // What tour.png shows: the estimated and (dry run) true trajectories, sampled every half second
@@ -381,17 +336,27 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   JsonlEventWriter events(run_dir / "events.jsonl", options.resume);
   const bool terminal = &out == &std::cout && ::isatty(STDOUT_FILENO) != 0;
   ProgressDisplay progress(out, terminal, mission.targets.size(), already_done);
-  auto write_checkpoint = [&] {
+  auto write_checkpoint_of = [&](double mission_s, const std::vector<TargetRecord>& done,
+                                 std::optional<std::size_t> interrupted_target) {
     Checkpoint c;
     c.mission = mission.name;
     c.seed = seed;
-    c.mission_s = clock.now_s();
-    c.done = executor.records();
-    if (executor.finished() && executor.outcome() == TourOutcome::interrupted &&
-        executor.current_target()) {
-      c.current_target = mission.targets[*executor.current_target()].id;
-    }
+    c.mission_s = mission_s;
+    c.done = done;
+    if (interrupted_target) c.current_target = mission.targets[*interrupted_target].id;
     write_file_atomically(run_dir / "checkpoint.json", dump_json(checkpoint_to_json(c), 2) + "\n");
+  };
+  // The hung step may return and reach on_target_done while the watchdog's handler writes its
+  // checkpoint: whoever comes second must not interleave with (or, for the step, overwrite) the
+  // handler's files. Once the handler holds this it never lets go; the process ends.
+  std::timed_mutex files_mutex;
+  std::atomic<bool> files_final{false};
+  auto write_checkpoint = [&] {
+    std::lock_guard<std::timed_mutex> lock(files_mutex);
+    if (files_final) return;
+    const bool interrupted = executor.finished() && executor.outcome() == TourOutcome::interrupted;
+    write_checkpoint_of(clock.now_s(), executor.records(),
+                        interrupted ? executor.current_target() : std::nullopt);
   };
   TargetDoneHook checkpoint_hook(write_checkpoint);
   TourTrace trace(run);
@@ -402,7 +367,9 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   executor.add_observer(&progress);
   executor.add_observer(&checkpoint_hook);
 
-  auto make_summary = [&](TourOutcome outcome) {
+  auto summary_of = [&](TourOutcome outcome, double mission_s,
+                        const std::vector<TargetRecord>& records,
+                        const std::vector<std::string>& ignored_cancel) {
     RunSummary summary;
     summary.mission = mission.name;
     summary.dry_run = options.dry_run;
@@ -410,25 +377,63 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     summary.outcome = outcome;
     summary.wall_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-    summary.mission_s = clock.now_s();
-    summary.targets = executor.records();
-    summary.ignored_cancel = executor.ignored_cancel();
+    summary.mission_s = mission_s;
+    summary.targets = records;
+    summary.ignored_cancel = ignored_cancel;
+    return summary;
+  };
+  auto make_summary = [&](TourOutcome outcome) {
+    RunSummary summary =
+        summary_of(outcome, clock.now_s(), executor.records(), executor.ignored_cancel());
     if (outcome == TourOutcome::aborted) summary.reason = executor.abort_reason();
     return summary;
   };
-  // Runs on the watchdog's thread while the tick loop is stuck inside a behaviour: the loop
-  // touches nothing the handler reads until that tick returns, which it never does.
-  TickWatchdog watchdog([&](const std::string& state, double limit_s) {
-    for (const auto& d : drivers.all()) d->safe_stop();
+  // The tour as of the last tick that returned, for the watchdog.
+  auto published_records = std::make_shared<const std::vector<TargetRecord>>();
+  auto snapshot = [&] {
+    TourSnapshot s;
+    s.mission_s = clock.now_s();
+    // Records are only ever appended, so a changed count is a changed list.
+    if (published_records->size() != executor.records().size()) {
+      published_records = std::make_shared<const std::vector<TargetRecord>>(executor.records());
+    }
+    s.records = published_records;
+    s.current_target = executor.current_target();
+    s.ignored_cancel = executor.ignored_cancel();
+    return s;
+  };
+  // Runs on the watchdog's thread while the tick loop is stuck inside a step. It reads only
+  // `last` (and what is fixed for the run: mission, machine, run directory, the driver set), and
+  // should the stuck step return, the loop waits in tick_finished() until this has ended the
+  // process.
+  //
+  // The safe stop is still done from here, although the stuck step may be inside one of those
+  // very drivers: a tour abandoned with the base driving and the projector lit is the worse
+  // fault, and the Driver contract asks safe_stop to be callable at any time. It runs on a
+  // thread of its own, bounded by kWatchdogSafeStopWait, so that a safe_stop blocked behind the
+  // hung call cannot also keep the report from being written; the stderr line says when the
+  // stop did not complete, for the operator to cut the power.
+  TickWatchdog watchdog([&](const std::string& state, double limit_s, const TourSnapshot& last) {
+    const bool stopped = safe_stop_within(drivers, kWatchdogSafeStopWait);
     const StateSpec* spec = prepared->machine->find(state);
-    RunSummary summary = make_summary(TourOutcome::aborted);
+    RunSummary summary =
+        summary_of(TourOutcome::aborted, last.mission_s, *last.records, last.ignored_cancel);
     char limit[32];
     std::snprintf(limit, sizeof limit, "%.1f", limit_s);
     summary.reason = "behaviour " + (spec != nullptr ? spec->behaviour : std::string("?")) +
                      " in state " + state + " hung: one tick ran past " + limit + " s";
-    err << "\nprojtour: aborted: " << summary.reason << "; safe stop done\n";
+    err << "\nprojtour: aborted: " << summary.reason
+        << (stopped
+                ? "; safe stop done\n"
+                : "; SAFE STOP DID NOT COMPLETE within 2 s: a driver is stuck, cut its power\n");
+    // Bounded: a step hung inside its own checkpoint write (a stalled disk) holds the lock, and
+    // the report still matters more. Never unlocked: the process ends here.
+    if (!files_mutex.try_lock_for(kWatchdogSafeStopWait)) {
+      err << "projtour: the hung step holds the checkpoint; writing over it\n";
+    }
+    files_final = true;
     try {
-      write_checkpoint();
+      write_checkpoint_of(last.mission_s, *last.records, std::nullopt);
       write_file_atomically(run_dir / "report.json", dump_json(build_report(summary), 2) + "\n");
     } catch (const std::exception& e) {
       err << "projtour: " << e.what() << "\n";
@@ -447,6 +452,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
       executor.request_cancel();
     }
     executor.start();
+    watchdog.publish(snapshot());
     while (!executor.finished()) {
       if (g_stop_signal != 0) {
         g_stop_signal = 0;
@@ -466,7 +472,10 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
       watchdog.tick_started(
           state, spec != nullptr && spec->timeout_s > 0 ? spec->timeout_s : options.watchdog_s);
       executor.step();
-      watchdog.tick_finished();
+      // The handler has written the report from the snapshot (and, in this command, ended the
+      // process): nothing of this tour may be touched again.
+      if (!watchdog.tick_finished()) return 1;
+      watchdog.publish(snapshot());
       trace.sample();
       if (speed > 0) {
         const double ahead_s = (clock.now_s() - mission_start_s) / speed;

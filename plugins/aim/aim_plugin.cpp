@@ -33,6 +33,7 @@ class Aim : public Behaviour {
   void start(Context& ctx) override {
     early_.reset();
     reached_at_s_.reset();
+    holding_ = false;
     if (ctx.target == nullptr) throw std::runtime_error("aim runs only inside a visit to a target");
     const TargetSpec& target = *ctx.target;
     const PoseEstimate2D* estimate = ctx.blackboard().find(keys::kLocalization);
@@ -81,26 +82,33 @@ class Aim : public Behaviour {
       reached_at_s_.reset();
       return std::nullopt;
     }
-    if (!reached_at_s_) reached_at_s_ = ctx.now_s();
-    if (ctx.now_s() - *reached_at_s_ < settle_s_) return std::nullopt;
+    if (!reached_at_s_) reached_at_s_ = ctx.state_elapsed_s();
+    if (ctx.state_elapsed_s() - *reached_at_s_ < settle_s_) return std::nullopt;
     return Outcome{"succeeded", "aimed at " + ctx.target->id + ": " + fmt_angles(goal_)};
   }
 
+  // Leaves the projector blank and the head still: a head stopped on its way (a timeout, a
+  // failure) holds where it is; one already held (paused, cancelled) or at its goal gets no
+  // new command, so a stop after a pause moves nothing.
   void stop(Context& ctx) override {
-    if (ctx.drivers().projector && !early_) ctx.drivers().projector->blank();
+    if (early_) return;
+    if (ctx.drivers().projector) ctx.drivers().projector->blank();
+    if (!holding_ && ctx.drivers().pan_tilt && !ctx.drivers().pan_tilt->reached()) hold(ctx);
   }
 
   void pause(Context& ctx) override { hold(ctx); }
   void resume(Context& ctx) override {
     reached_at_s_.reset();
+    holding_ = false;
     if (!early_ && ctx.drivers().pan_tilt) ctx.drivers().pan_tilt->command(goal_);
   }
 
  private:
   // Stops the head where it is.
-  static void hold(Context& ctx) {
+  void hold(Context& ctx) {
     if (ctx.drivers().pan_tilt) {
       ctx.drivers().pan_tilt->command(ctx.drivers().pan_tilt->measured());
+      holding_ = true;
     }
   }
 
@@ -109,7 +117,8 @@ class Aim : public Behaviour {
   HeadKinematics kinematics_;
   JointAngles goal_;
   std::optional<Outcome> early_;
-  std::optional<double> reached_at_s_;
+  std::optional<double> reached_at_s_;  // state time the head was first seen at its goal
+  bool holding_ = false;                // hold() was the last head command
 };
 
 void check_params(const Params& params) {

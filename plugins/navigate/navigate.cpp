@@ -74,7 +74,9 @@ void Navigate::start(Context& ctx) {
   result_ = NavigateResult{};
   progress_index_ = 0;
   final_turn_ = false;
-  start_s_ = ctx.now_s();
+  // State time, not mission time: a pause (operator, SIGUSR1) longer than blocked_s must not
+  // read as no progress, nor count towards the timeout, on the first tick after the resume.
+  start_s_ = ctx.state_elapsed_s();
   last_progress_s_ = start_s_;
   last_replan_s_ = -1e9;
   last_converged_s_ = start_s_;
@@ -82,7 +84,7 @@ void Navigate::start(Context& ctx) {
 }
 
 bool Navigate::replan(Context& ctx, const Pose2D& from) {
-  last_replan_s_ = ctx.now_s();
+  last_replan_s_ = ctx.state_elapsed_s();
   auto path = planner_->plan({from.x_m, from.y_m}, {goal_.x_m, goal_.y_m});
   if (!path) return false;
   path_ = std::move(*path);
@@ -160,7 +162,7 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
     command(ctx, 0, 0);
     return Outcome{kOutcomeCancelled, "cancelled"};
   }
-  const double now_s = ctx.now_s();
+  const double now_s = ctx.state_elapsed_s();
   const PoseEstimate2D* estimate = ctx.blackboard().find(keys::kLocalization);
   if (estimate == nullptr) {
     command(ctx, 0, 0);

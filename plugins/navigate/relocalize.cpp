@@ -17,7 +17,7 @@ void Relocalize::start(Context& ctx) {
   if (!ctx.drivers().base) throw std::runtime_error("relocalize needs a base driver");
   if (ctx.drivers().projector) ctx.drivers().projector->blank();
   ctx.blackboard().set(keys::kLocalizationWiden, widen_m_);
-  start_s_ = ctx.now_s();
+  start_s_ = ctx.state_elapsed_s();  // pauses count neither as spinning nor as settling
   converged_since_s_ = -1.0;
 }
 
@@ -27,7 +27,7 @@ std::optional<Outcome> Relocalize::tick(Context& ctx) {
     base.command_velocity(0, 0);
     return Outcome{kOutcomeCancelled, "cancelled"};
   }
-  const double now_s = ctx.now_s();
+  const double now_s = ctx.state_elapsed_s();
   const PoseEstimate2D* estimate = ctx.blackboard().find(keys::kLocalization);
   const bool widened = !ctx.blackboard().has(keys::kLocalizationWiden);  // the service took it
   const bool* service_converged = ctx.blackboard().find(keys::kLocalizationConverged);

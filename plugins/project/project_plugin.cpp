@@ -52,14 +52,13 @@ class Project : public Behaviour {
     early_.reset();
     showing_ = false;
     paused_ = false;
-    paused_total_s_ = 0.0;
     content_.reset();
     tracking_ = false;
     if (ctx.target == nullptr) throw std::runtime_error("project runs only inside a visit");
     early_ = prepare(ctx);
     if (early_) return;
     if (track_.enabled) start_tracking(ctx);
-    t_start_s_ = ctx.now_s();
+    t_start_s_ = ctx.state_elapsed_s();
     result_.shown_s = 0.0;
     publish(ctx);
     show_current(ctx, /*force=*/true);
@@ -107,13 +106,11 @@ class Project : public Behaviour {
   void pause(Context& ctx) override {
     if (!showing_ || paused_) return;
     paused_ = true;
-    paused_at_s_ = ctx.now_s();
     ctx.drivers().projector->blank();
   }
   void resume(Context& ctx) override {
     if (!paused_) return;
     paused_ = false;
-    paused_total_s_ += ctx.now_s() - paused_at_s_;
     ctx.drivers().projector->show(last_frame_);
   }
 
@@ -269,7 +266,9 @@ class Project : public Behaviour {
 
   void publish(Context& ctx) const { ctx.blackboard().set(keys::kProject, result_); }
 
-  double elapsed_s(const Context& ctx) const { return ctx.now_s() - t_start_s_ - paused_total_s_; }
+  // Dwell and video time: state time, which stands still while paused (the projector is blank
+  // then, so the content neither advances nor counts as shown).
+  double elapsed_s(const Context& ctx) const { return ctx.state_elapsed_s() - t_start_s_; }
 
   void show_current(Context& ctx, bool force) {
     bool changed = false;
@@ -287,8 +286,7 @@ class Project : public Behaviour {
       ctx.log().info("project " + ctx.target->id + " tracking: " + tracker_.stats().summary());
       tracking_ = false;
     }
-    const double end_s = paused_ ? paused_at_s_ : ctx.now_s();
-    const double shown_s = std::min(end_s - t_start_s_ - paused_total_s_, dwell_s_);
+    const double shown_s = std::min(elapsed_s(ctx), dwell_s_);
     result_.shown_s = std::max(0.0, shown_s);
     publish(ctx);
     ctx.drivers().projector->blank();
@@ -315,9 +313,7 @@ class Project : public Behaviour {
   double dwell_s_ = 0.0;
   double t_start_s_ = 0.0;
   bool showing_ = false;
-  bool paused_ = false;
-  double paused_at_s_ = 0.0;
-  double paused_total_s_ = 0.0;
+  bool paused_ = false;  // blanked by pause(): resume() shows last_frame_ again
 };
 
 void check_params(const Params& params) {

@@ -1,7 +1,9 @@
 // The testing plugin: scripted behaviours with the outcome sets of the tour's steps, null
 // drivers that record their safe stops, and a dead-reckoning localization service, so a tour
 // can run end to end without the simulator or hardware.
+#include <atomic>
 #include <fstream>
+#include <mutex>
 
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/plugin_author.hpp"
@@ -35,13 +37,15 @@ class NullDevice {
   std::filesystem::path run_dir_;
 };
 
-// Integrates commanded velocities exactly: odometry is the truth of this null world.
+// Integrates commanded velocities exactly: odometry is the truth of this null world. Locked:
+// the tick watchdog's safe_stop may come from its thread while a tick is inside update().
 class TestBase : public BaseDriver {
  public:
   TestBase(const Params& params, const RunContext& run) : device_("test_base", params, run) {
     odometry_.pose = run.mission != nullptr ? run.mission->start : Pose2D{};
   }
   void update(double t_s) override {
+    std::lock_guard<std::mutex> lock(mutex_);
     const double dt_s = t_s - odometry_.t_s;
     odometry_.t_s = t_s;
     if (dt_s <= 0) return;
@@ -54,13 +58,18 @@ class TestBase : public BaseDriver {
     device_.note_safe_stop();
   }
   void command_velocity(double v_mps, double w_radps) override {
+    std::lock_guard<std::mutex> lock(mutex_);
     odometry_.v_mps = v_mps;
     odometry_.w_radps = w_radps;
   }
-  Odometry odometry() const override { return odometry_; }
+  Odometry odometry() const override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return odometry_;
+  }
 
  private:
   NullDevice device_;
+  mutable std::mutex mutex_;
   Odometry odometry_;
 };
 
@@ -114,7 +123,7 @@ class TestProjector : public ProjectorDriver {
 
  private:
   NullDevice device_;
-  bool blank_ = true;
+  std::atomic<bool> blank_{true};  // safe_stop may come from the watchdog's thread
 };
 
 // Dead reckoning: the base's odometry as the localization estimate.

@@ -56,10 +56,16 @@ TEST(TemplatePlugin, DeclaresItsKindAndWaitsOnMissionTime) {
   projtour::testing::TestRun run;
   auto behaviour = registry.create_behaviour("hello", params, run.run);
   auto ctx = run.context(params);
+  // The executor's part: the state's time, which the pause does not advance.
+  projtour::StateTimer timer;
+  ctx.state_timer = &timer;
+  timer.restart(run.clock.now_s());
   behaviour->start(ctx);
   run.clock.advance(2.0);
+  timer.pause(run.clock.now_s());
   behaviour->pause(ctx);
   run.clock.advance(5.0);  // paused time does not count
+  timer.resume(run.clock.now_s());
   behaviour->resume(ctx);
   EXPECT_FALSE(behaviour->tick(ctx).has_value());
   run.clock.advance(1.0);

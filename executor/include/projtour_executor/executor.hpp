@@ -72,7 +72,8 @@ class Executor {
   void pause();
   void resume();
   bool paused() const { return paused_; }
-  // Cooperative: the behaviour sees ctx.cancel_requested() and gets cancel_grace_s to return.
+  // Cooperative: the behaviour sees ctx.cancel_requested() and gets cancel_grace_s to return. A
+  // paused behaviour is stopped at the next step without being resumed.
   void request_cancel();
 
   bool finished() const { return finished_; }
@@ -136,7 +137,7 @@ class Executor {
   std::vector<const StateSpec*> active_;  // root ... leaf
   Behaviour* leaf_behaviour_ = nullptr;
   Context leaf_ctx_;
-  double leaf_elapsed_s_ = 0.0;  // mission time in the leaf, pauses excluded
+  StateTimer leaf_timer_;  // mission time in the leaf, pauses excluded (ctx.state_elapsed_s())
   CancelToken cancel_;
   bool started_ = false;
   bool paused_ = false;

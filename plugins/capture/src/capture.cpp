@@ -34,7 +34,7 @@ class Capture : public Behaviour {
   void start(Context& ctx) override {
     frames_.clear();
     dropped_ = 0;
-    started_s_ = ctx.now_s();
+    started_s_ = ctx.state_elapsed_s();  // a pause is not time the camera failed to deliver
   }
 
   std::optional<Outcome> tick(Context& ctx) override {
@@ -77,7 +77,7 @@ class Capture : public Behaviour {
       frames_.clear();
       return Outcome{"succeeded", what.str()};
     }
-    if (ctx.now_s() - started_s_ > settings_.max_wait_s) {
+    if (ctx.state_elapsed_s() - started_s_ > settings_.max_wait_s) {
       std::ostringstream why;
       why << "got " << frames_.size() << " of " << settings_.average_frames << " frame(s) in "
           << settings_.max_wait_s << " s (" << dropped_ << " dropped)";

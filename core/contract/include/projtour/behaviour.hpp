@@ -23,10 +23,13 @@ class Behaviour {
   // nullopt while running. Should return within a tick's worth of work; long computations are
   // split over ticks. A throw ends the state with outcome "failed" carrying the message.
   virtual std::optional<Outcome> tick(Context& ctx) = 0;
-  // Always called after the last tick, also after cancel or a throw. Leaves devices safe.
+  // Always called after the last tick, also after cancel or a throw, and straight after
+  // pause() when a paused state is cancelled (no resume, no tick in between). Leaves devices
+  // safe: projector blank, head and base still.
   virtual void stop(Context& ctx);
   // Cancel is cooperative: ctx.cancel_requested() turns true and tick should return
   // "cancelled" soon (it may take several ticks).
+  // No tick between pause and resume; ctx.state_elapsed_s() stands still meanwhile.
   virtual void pause(Context& ctx);
   virtual void resume(Context& ctx);
 };

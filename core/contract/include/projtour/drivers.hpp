@@ -31,7 +31,10 @@ class Driver {
   // Called once per executor tick with the mission time; simulated devices advance here.
   virtual void update(double t_s);
   // Bring the device to a safe state (base stopped, head holding, projector blank). Must not
-  // throw and must be callable at any time, any number of times.
+  // throw and must be callable at any time, any number of times, and from any thread: the tick
+  // watchdog calls it from its own while a hung tick may be inside this driver. So it takes
+  // only locks the driver's other calls hold briefly, and stopping the device wins over
+  // keeping the driver's other state consistent (the process ends right after).
   virtual void safe_stop() = 0;
   // Only simulated drivers know the truth; hardware returns null.
   virtual GroundTruth* ground_truth();
