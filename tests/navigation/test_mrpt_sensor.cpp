@@ -1,19 +1,18 @@
 // The mrpt_sensor laser driver: an absent device is a clear error naming it.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <fstream>
 
 #include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
+#include "projtour_test/temp_dir.hpp"
 
 namespace projtour {
 namespace {
 
 TEST(MrptSensor, AbsentSerialDeviceIsAnErrorNamingThePort) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("projtour_mrpt_sensor_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const test::TempDir scratch;
+  const auto dir = scratch.path();
   const auto ini = dir / "laser.ini";
   std::ofstream(ini) << "[LASER_2D]\ndriver = CHokuyoURG\nprocess_rate = 10\n"
                         "sensorLabel = HOKUYO\nCOM_port_LIN = /dev/ttyProjtourAbsent0\n";
@@ -51,9 +50,8 @@ TEST(MrptSensor, UnknownDriverAndMissingIniAreErrors) {
               std::string::npos)
         << e.what();
   }
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("projtour_mrpt_sensor_u" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const test::TempDir scratch;
+  const auto dir = scratch.path();
   std::ofstream(dir / "l.ini") << "[LASER_2D]\ndriver = CNoSuchScanner\n";
   params.set("ini", (dir / "l.ini").string());
   try {
