@@ -281,7 +281,7 @@ TEST_F(PluginTest, AlignWithoutAFrameFails) {
 
 // The real OpenNI2 path, on OpenNI2's Dummy device (320x240 depth, no hardware).
 TEST(OpenNi2, DummyDeviceStreamsFramesWithIntrinsicsAndIncreasingTimestamps) {
-  test::RunRig rig;
+  const test::RunRig rig{test::RunRig::RunDir::none};
   auto driver = registry().create_driver(
       "openni2", params_of("openni2", {{"uri", std::string("Dummy")}}), rig.run);
   auto* camera = dynamic_cast<DepthCameraDriver*>(driver.get());
@@ -318,7 +318,7 @@ TEST(OpenNi2, DummyDeviceStreamsFramesWithIntrinsicsAndIncreasingTimestamps) {
 }
 
 TEST(OpenNi2, NonexistentUriIsAClearError) {
-  test::RunRig rig;
+  const test::RunRig rig{test::RunRig::RunDir::none};
   try {
     registry().create_driver(
         "openni2", params_of("openni2", {{"uri", std::string("/nonexistent/tour.oni")}}), rig.run);

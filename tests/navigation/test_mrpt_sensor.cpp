@@ -5,6 +5,7 @@
 
 #include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
+#include "projtour_test/run_rig.hpp"
 #include "projtour_test/temp_dir.hpp"
 
 namespace projtour {
@@ -20,9 +21,9 @@ TEST(MrptSensor, AbsentSerialDeviceIsAnErrorNamingThePort) {
   registry.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_mrpt_sensor.so");
   Params params = default_params(registry.require("mrpt_sensor").params);
   params.set("ini", ini.string());
-  RunContext run;
+  const test::RunRig rig{test::RunRig::RunDir::none};
   try {
-    registry.create_driver("mrpt_sensor", params, run);
+    registry.create_driver("mrpt_sensor", params, rig.run);
     FAIL() << "expected the driver to fail without a device";
   } catch (const PluginError& e) {
     const std::string message = e.what();
@@ -41,9 +42,9 @@ TEST(MrptSensor, UnknownDriverAndMissingIniAreErrors) {
   registry.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_mrpt_sensor.so");
   Params params = default_params(registry.require("mrpt_sensor").params);
   params.set("ini", std::string("/nonexistent/laser.ini"));
-  RunContext run;
+  const test::RunRig rig{test::RunRig::RunDir::none};
   try {
-    registry.create_driver("mrpt_sensor", params, run);
+    registry.create_driver("mrpt_sensor", params, rig.run);
     FAIL();
   } catch (const PluginError& e) {
     EXPECT_NE(std::string(e.what()).find("ini file /nonexistent/laser.ini not found"),
@@ -55,7 +56,7 @@ TEST(MrptSensor, UnknownDriverAndMissingIniAreErrors) {
   std::ofstream(dir / "l.ini") << "[LASER_2D]\ndriver = CNoSuchScanner\n";
   params.set("ini", (dir / "l.ini").string());
   try {
-    registry.create_driver("mrpt_sensor", params, run);
+    registry.create_driver("mrpt_sensor", params, rig.run);
     FAIL();
   } catch (const PluginError& e) {
     EXPECT_NE(std::string(e.what()).find("unknown MRPT sensor driver \"CNoSuchScanner\""),
