@@ -92,8 +92,8 @@ function(projtour_add_test name)
   cmake_parse_arguments(T "" "TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${name} ${T_SOURCES})
   projtour_all_libraries(all_libraries)
-  target_link_libraries(${name} PRIVATE ${all_libraries} GTest::gtest GTest::gtest_main
-    ${T_LIBS})
+  target_link_libraries(${name} PRIVATE ${all_libraries} projtour_test_support GTest::gtest
+    GTest::gtest_main ${T_LIBS})
   projtour_target_options(${name})
   if(NOT T_TIMEOUT)
     set(T_TIMEOUT 300)
@@ -103,7 +103,8 @@ function(projtour_add_test name)
     PROJTOUR_BINARY_DIR="${PROJECT_BINARY_DIR}"
     PROJTOUR_PLUGIN_BUILD_DIR="${PROJTOUR_PLUGIN_BUILD_DIR}")
   # The folder's label comes from tests/CMakeLists.txt; LABELS adds at most one more (unit,
-  # long, plugins), since gtest_discover_tests in CMake 3.25 turns "a;b" into two properties.
+  # plugins, slow), since gtest_discover_tests in CMake 3.25 turns "a;b" into two properties.
+  # `slow`: what `make test` runs after the fast suite (ctest -LE slow, then -L slow).
   list(LENGTH T_LABELS label_count)
   if(label_count GREATER 1)
     message(FATAL_ERROR "projtour_add_test(${name}): one label beyond the folder's, got ${T_LABELS}")
@@ -122,7 +123,8 @@ function(projtour_add_bench name)
   cmake_parse_arguments(B "" "" "SOURCES;LIBS" ${ARGN})
   add_executable(${name} ${B_SOURCES})
   projtour_all_libraries(all_libraries)
-  target_link_libraries(${name} PRIVATE ${all_libraries} benchmark::benchmark ${B_LIBS})
+  target_link_libraries(${name} PRIVATE ${all_libraries} projtour_test_support
+    benchmark::benchmark ${B_LIBS})
   projtour_target_options(${name})
   target_compile_definitions(${name} PRIVATE
     PROJTOUR_SOURCE_DIR="${PROJECT_SOURCE_DIR}"

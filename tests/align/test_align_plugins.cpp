@@ -13,6 +13,7 @@
 #include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
 #include "projtour/registration.hpp"
+#include "projtour_test/run_rig.hpp"
 #include "rendered_scenes.hpp"
 
 namespace projtour {
@@ -41,11 +42,6 @@ class QueuedCamera : public DepthCameraDriver {
     return f;
   }
   void safe_stop() override {}
-};
-
-class SilentLogger : public Logger {
- public:
-  void log(LogLevel, const std::string&) override {}
 };
 
 const char* const kBunny = PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply";
@@ -84,22 +80,13 @@ class PluginTest : public ::testing::Test {
     mission_.targets.push_back(target);
     pan_tilt_->q = {0.0, deg_to_rad(8.0)};
 
-    run_.mission = &mission_;
-    run_.drivers = &drivers_;
-    run_.blackboard = &blackboard_;
-    run_.clock = &clock_;
-    run_.log = &logger_;
+    run_.dry_run = false;
     drivers_.pan_tilt = pan_tilt_;
     drivers_.depth_camera = camera_;
-    ctx_.run = &run_;
-    ctx_.target = &mission_.targets[0];
-    ctx_.target_dir =
-        fs::temp_directory_path() / ("projtour_align_test_" + std::to_string(::getpid()));
-    fs::create_directories(ctx_.target_dir);
+    ctx_ = rig_.target_context(0);
     PoseEstimate2D loc;
     blackboard_.set(keys::kLocalization, loc);
   }
-  void TearDown() override { fs::remove_all(ctx_.target_dir); }
 
   Eigen::Isometry3d T_camera_model_true() const {
     const Eigen::Isometry3d T_map_model_true =
@@ -149,14 +136,14 @@ class PluginTest : public ::testing::Test {
     return {"(still running)", ""};
   }
 
-  MissionSpec mission_;
-  DriverSet drivers_;
+  test::RunRig rig_;
+  MissionSpec& mission_ = rig_.mission;
+  DriverSet& drivers_ = rig_.drivers;
   std::shared_ptr<FixedPanTilt> pan_tilt_ = std::make_shared<FixedPanTilt>();
   std::shared_ptr<QueuedCamera> camera_ = std::make_shared<QueuedCamera>();
-  Blackboard blackboard_;
-  SteppedClock clock_;
-  SilentLogger logger_;
-  RunContext run_;
+  Blackboard& blackboard_ = rig_.blackboard;
+  SteppedClock& clock_ = rig_.clock;
+  RunContext& run_ = rig_.run;
   Context ctx_;
 };
 
@@ -294,9 +281,9 @@ TEST_F(PluginTest, AlignWithoutAFrameFails) {
 
 // The real OpenNI2 path, on OpenNI2's Dummy device (320x240 depth, no hardware).
 TEST(OpenNi2, DummyDeviceStreamsFramesWithIntrinsicsAndIncreasingTimestamps) {
-  RunContext run;
+  const test::RunRig rig{test::RunRig::RunDir::none};
   auto driver = registry().create_driver(
-      "openni2", params_of("openni2", {{"uri", std::string("Dummy")}}), run);
+      "openni2", params_of("openni2", {{"uri", std::string("Dummy")}}), rig.run);
   auto* camera = dynamic_cast<DepthCameraDriver*>(driver.get());
   ASSERT_NE(camera, nullptr);
   std::vector<DepthFrame> frames;
@@ -331,10 +318,10 @@ TEST(OpenNi2, DummyDeviceStreamsFramesWithIntrinsicsAndIncreasingTimestamps) {
 }
 
 TEST(OpenNi2, NonexistentUriIsAClearError) {
-  RunContext run;
+  const test::RunRig rig{test::RunRig::RunDir::none};
   try {
     registry().create_driver(
-        "openni2", params_of("openni2", {{"uri", std::string("/nonexistent/tour.oni")}}), run);
+        "openni2", params_of("openni2", {{"uri", std::string("/nonexistent/tour.oni")}}), rig.run);
     FAIL() << "opened a nonexistent device";
   } catch (const PluginError& e) {
     const std::string what = e.what();

@@ -6,6 +6,7 @@
 #include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
 #include "projtour_executor/executor.hpp"
+#include "projtour_test/run_rig.hpp"
 #include "scripted_behaviour.hpp"
 
 namespace projtour {
@@ -13,10 +14,11 @@ namespace {
 
 struct Tour {
   InProcessCatalog catalog;
-  MissionSpec mission;
-  Blackboard blackboard;
-  SteppedClock clock;
-  RunContext run;
+  // No run directory: making target directories is not the executor's cost being measured.
+  test::RunRig rig{test::RunRig::RunDir::none};
+  MissionSpec& mission = rig.mission;
+  SteppedClock& clock = rig.clock;
+  RunContext& run = rig.run;
 
   // The tour's kinds, each playing `scripts[kind]` (default: succeed on the first tick).
   Tour(std::size_t targets, const std::map<std::string, std::string>& scripts) {
@@ -25,9 +27,7 @@ struct Tour {
       t.id = "t" + std::to_string(i);
       mission.targets.push_back(t);
     }
-    run.mission = &mission;
-    run.blackboard = &blackboard;
-    run.clock = &clock;
+    run.dry_run = false;
     const std::map<std::string, std::vector<std::string>> kinds = {
         {"navigate", {"succeeded", "unreachable", "blocked", "timeout", "lost"}},
         {"relocalize", {"succeeded", "lost"}},

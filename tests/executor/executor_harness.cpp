@@ -99,9 +99,8 @@ Harness::Harness(std::vector<std::string> target_ids) {
     t.id = id;
     mission.targets.push_back(t);
   }
-  run_context.mission = &mission;
-  run_context.blackboard = &blackboard;
-  run_context.clock = &clock;
+  // A real run, not a dry run: no report figure may depend on a simulator's truth.
+  rig.run.dry_run = false;
   for (const auto& [kind, outcomes] : tour_kinds()) {
     // Tour kinds take their script from the harness (the default machine gives no params);
     // "scripted" reads its params from the machine like the plugin does.

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "projtour_executor/executor.hpp"
+#include "projtour_test/run_rig.hpp"
 #include "scripted_behaviour.hpp"
 
 namespace projtour::testing {
@@ -61,10 +62,11 @@ class Harness {
   ScriptedBehaviour& behaviour(const std::string& path);  // path without the root
 
   InProcessCatalog catalog;
-  MissionSpec mission;
-  Blackboard blackboard;
-  SteppedClock clock;
-  RunContext run_context;
+  test::RunRig rig{test::RunRig::RunDir::none};
+  MissionSpec& mission = rig.mission;
+  Blackboard& blackboard = rig.blackboard;
+  SteppedClock& clock = rig.clock;
+  RunContext& run_context = rig.run;
   std::optional<Machine> machine;
   std::unique_ptr<Executor> executor;
   Recorder recorder;

@@ -2,54 +2,36 @@
 // the build's plugin directory, and exit codes and the files of the run directory are checked.
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <thread>
 
 #include "projtour/plugin_loader.hpp"
 #include "projtour_executor/executor.hpp"
 #include "projtour_executor/json_io.hpp"
+#include "projtour_test/process.hpp"
+#include "projtour_test/run_files.hpp"
+#include "projtour_test/run_rig.hpp"
+#include "projtour_test/temp_dir.hpp"
 
 namespace projtour {
 namespace {
 
 namespace fs = std::filesystem;
 
-const std::string kProjtour = std::string(PROJTOUR_BINARY_DIR) + "/projtour";
 const std::string kSource = PROJTOUR_SOURCE_DIR;
-const std::string kPluginPath = PROJTOUR_PLUGIN_BUILD_DIR;
+const std::string kPluginPath = test::plugin_build_dir().string();
 
+// "" for a file not written (yet): a missing file shows in the assertion on its contents.
 std::string read_text(const fs::path& file) {
-  std::ifstream in(file);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return test::read_text_if_exists(file);
 }
-
-std::vector<Json> read_jsonl(const fs::path& file) {
-  std::vector<Json> out;
-  std::istringstream in(read_text(file));
-  std::string line;
-  while (std::getline(in, line)) out.push_back(parse_json(line, file.string()));
-  return out;
-}
+using test::read_jsonl;
 
 class Command : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("projtour_cmd_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    if (!HasFailure()) fs::remove_all(dir_);
-  }
-
   // A three-target mission in the test hall with `machine` (YAML under "machine:").
   fs::path write_mission(const std::string& machine, const std::string& name = "mission.yaml") {
     const std::string data = kSource + "/tests/executor/data/";
@@ -74,18 +56,21 @@ class Command : public ::testing::Test {
     return file;
   }
 
-  // Runs projtour with `args`; stdout and stderr go to files in the test directory.
-  int projtour(const std::string& args) {
-    const std::string command = kProjtour + " " + args + " --plugin-path " + kPluginPath + " >" +
-                                (dir_ / "stdout.txt").string() + " 2>" +
-                                (dir_ / "stderr.txt").string();
-    const int status = std::system(command.c_str());
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  // projtour with `args` (words as a shell splits them) and the build's plugins; stdout and
+  // stderr go to files in the test directory.
+  test::ChildOptions command(const std::string& args, const std::string& log = "") const {
+    test::ChildOptions options =
+        test::projtour_command(test::shell_words(args + " --plugin-path " + kPluginPath));
+    options.stdout_file = dir_ / ("stdout" + log + ".txt");
+    options.stderr_file = dir_ / ("stderr" + log + ".txt");
+    return options;
   }
+  int projtour(const std::string& args) { return test::run(command(args)).status; }
   std::string err() const { return read_text(dir_ / "stderr.txt"); }
   std::string out() const { return read_text(dir_ / "stdout.txt"); }
 
-  fs::path dir_;
+  test::TempDir scratch_;
+  const fs::path dir_ = scratch_.path();
 };
 
 const std::string kLinearMachine = R"(  initial: visit
@@ -324,29 +309,18 @@ TEST_F(Command, SameSeedSameEventsAndReport) {
 TEST_F(Command, InterruptThenResume) {
   const fs::path run = dir_ / "run";
   const std::string mission = kSource + "/missions/scripted_tour.yaml";
-  const pid_t child = ::fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    const std::string out = (dir_ / "stdout1.txt").string();
-    const std::string err = (dir_ / "stderr1.txt").string();
-    std::freopen(out.c_str(), "w", stdout);
-    std::freopen(err.c_str(), "w", stderr);
-    ::execl(kProjtour.c_str(), kProjtour.c_str(), "run", mission.c_str(), "--speed", "4", "--out",
-            run.c_str(), "--plugin-path", kPluginPath.c_str(), static_cast<char*>(nullptr));
-    ::_exit(127);
+  {
+    // Stopped by the support library's shim right after aim of pillar begins, so the SIGINT
+    // lands there on any machine.
+    test::ChildOptions options =
+        command("run " + mission + " --speed 4 --out " + run.string(), "1");
+    options.stop_after_write = "\"state\": \"tour/visit/aim\", \"target\": \"pillar\"";
+    test::Child child(options);
+    ASSERT_TRUE(child.wait_stopped(std::chrono::seconds(30))) << child.err();
+    child.signal(SIGINT);
+    child.resume();
+    ASSERT_EQ(child.wait(std::chrono::seconds(60)), 130) << child.err();
   }
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  while (read_text(run / "events.jsonl")
-                 .find("\"state\": \"tour/visit/aim\", \"target\": "
-                       "\"pillar\"") == std::string::npos &&
-         std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  ::kill(child, SIGINT);
-  int status = 0;
-  ASSERT_EQ(::waitpid(child, &status, 0), child);
-  ASSERT_TRUE(WIFEXITED(status));
-  ASSERT_EQ(WEXITSTATUS(status), 130) << read_text(dir_ / "stderr1.txt");
 
   const Json checkpoint = read_json_file(run / "checkpoint.json");
   ASSERT_EQ(checkpoint.at("done").size(), 1u);
@@ -410,25 +384,16 @@ TEST_F(Command, BehaviourIgnoringCancelIsNamedAndStillSafeStopped) {
   std::string machine = kLinearMachine;
   machine.replace(machine.find("ticks: 4,"), 9, "ticks: 100000, ignore_cancel: true,");
   const fs::path mission = write_mission(machine);
-  const pid_t child = ::fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    std::freopen((dir_ / "stdout1.txt").c_str(), "w", stdout);
-    std::freopen((dir_ / "stderr1.txt").c_str(), "w", stderr);
-    ::execl(kProjtour.c_str(), kProjtour.c_str(), "run", mission.c_str(), "--speed", "20", "--out",
-            run.c_str(), "--plugin-path", kPluginPath.c_str(), static_cast<char*>(nullptr));
-    ::_exit(127);
+  {
+    test::ChildOptions options =
+        command("run " + mission.string() + " --speed 20 --out " + run.string(), "1");
+    options.stop_after_write = "tour/visit/work";
+    test::Child child(options);
+    ASSERT_TRUE(child.wait_stopped(std::chrono::seconds(30))) << child.err();
+    child.signal(SIGINT);
+    child.resume();
+    EXPECT_EQ(child.wait(std::chrono::seconds(60)), 130) << child.err();
   }
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  while (read_text(run / "events.jsonl").find("tour/visit/work") == std::string::npos &&
-         std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  ::kill(child, SIGINT);
-  int status = 0;
-  ASSERT_EQ(::waitpid(child, &status, 0), child);
-  ASSERT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 130) << read_text(dir_ / "stderr1.txt");
   EXPECT_NE(read_text(dir_ / "stderr1.txt").find("tour/visit/work ignored the cancel"),
             std::string::npos);
   const Json report = read_json_file(run / "report.json");
@@ -487,18 +452,14 @@ states:
   auto machine = load_machine(YamlField(*node, "plugin_machine.yaml", diag), catalog, diag);
   ASSERT_TRUE(machine) << diag.format();
 
-  MissionSpec mission;
-  mission.name = "plugin";
-  mission.targets.resize(2);
-  mission.targets[0].id = "a";
-  mission.targets[1].id = "b";
-  Blackboard blackboard;
-  SteppedClock clock;
-  RunContext run;
-  run.mission = &mission;
-  run.blackboard = &blackboard;
-  run.clock = &clock;
-  Executor executor(*machine, create_behaviours(*machine, catalog, run), {}, run, clock);
+  test::RunRig rig;
+  rig.run.dry_run = false;
+  rig.mission.name = "plugin";
+  rig.mission.targets.resize(2);
+  rig.mission.targets[0].id = "a";
+  rig.mission.targets[1].id = "b";
+  SteppedClock& clock = rig.clock;
+  Executor executor(*machine, create_behaviours(*machine, catalog, rig.run), {}, rig.run, clock);
   std::vector<std::string> lines;
   struct Lines : ExecutorObserver {
     std::vector<std::string>* out;

@@ -2,7 +2,6 @@
 // across versions), strict parsing of checkpoint.json and report.json with errors that name the
 // file and the byte, and the target records through to_json/from_json.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -16,6 +15,7 @@
 #include "projtour_executor/report.hpp"
 #include "projtour_executor/summary_page.hpp"
 #include "projtour_executor/target_record.hpp"
+#include "projtour_test/temp_dir.hpp"
 
 namespace projtour {
 namespace {
@@ -229,18 +229,10 @@ TEST(TargetRecordJson, RejectsFieldsOfTheWrongTypeOrUnknown) {
 class CheckpointFile : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("projtour_json_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
     mission_.name = "m";
     mission_.targets.resize(2);
     mission_.targets[0].id = "rabbit";
     mission_.targets[1].id = "sign";
-  }
-  void TearDown() override {
-    if (!HasFailure()) fs::remove_all(dir_);
   }
   fs::path write(const std::string& text) {
     const fs::path file = dir_ / "checkpoint.json";
@@ -257,7 +249,8 @@ class CheckpointFile : public ::testing::Test {
     return "";
   }
 
-  fs::path dir_;
+  test::TempDir scratch_;
+  const fs::path dir_ = scratch_.path();
   MissionSpec mission_;
 };
 
@@ -317,9 +310,8 @@ TEST_F(CheckpointFile, FieldsMustHaveTheirTypes) {
 }
 
 TEST(SummaryInput, MalformedReportNamesTheFileAndByte) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("projtour_json_report_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const test::TempDir scratch;
+  const fs::path dir = scratch.path();
   write_file_atomically(dir / "report.json", "{\"mission\": \"m\", \"seed\": 1-2-3}\n");
   try {
     read_summary_input(dir);
@@ -331,12 +323,11 @@ TEST(SummaryInput, MalformedReportNamesTheFileAndByte) {
         << e.what();
   }
   EXPECT_FALSE(fs::exists(dir / "report.json.tmp"));
-  fs::remove_all(dir);
 }
 
 TEST(AtomicFile, ReplacesTheFileAndNamesItOnFailure) {
-  const fs::path file =
-      fs::temp_directory_path() / ("projtour_atomic_" + std::to_string(::getpid()) + ".txt");
+  const test::TempDir scratch;
+  const fs::path file = scratch / "atomic.txt";
   write_file_atomically(file, "one");
   write_file_atomically(file, "two");
   std::ifstream in(file);

@@ -7,6 +7,7 @@
 #include "projtour_executor/atomic_file.hpp"
 #include "projtour_executor/json_io.hpp"
 #include "projtour_executor/report.hpp"
+#include "projtour_test/temp_dir.hpp"
 
 namespace projtour::testing {
 namespace {
@@ -19,9 +20,8 @@ class ResumeAfterInterruption : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(ResumeAfterInterruption, RestartsTheInterruptedTargetFromNavigate) {
   const std::string step = GetParam();
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("projtour_resume_" + step + "_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const test::TempDir scratch;
+  const std::filesystem::path dir = scratch.path();
 
   Checkpoint checkpoint;
   {
@@ -61,7 +61,6 @@ TEST_P(ResumeAfterInterruption, RestartsTheInterruptedTargetFromNavigate) {
   ASSERT_EQ(second.executor->records().size(), 3u);
   EXPECT_EQ(second.executor->records()[0].id, "rabbit");
   EXPECT_GT(second.recorder.events.front().t_s, 0.0);  // mission time carries on
-  std::filesystem::remove_all(dir);
 }
 
 // An interruption in `next` comes after the content was shown: see the test below.
@@ -110,8 +109,8 @@ TEST(Resume, EverythingDoneFinishesAtOnce) {
 }
 
 TEST(Resume, CheckpointOfAnotherMissionIsRefused) {
-  const auto file = std::filesystem::temp_directory_path() /
-                    ("projtour_ckpt_" + std::to_string(::getpid()) + ".json");
+  const test::TempDir scratch;
+  const auto file = scratch / "checkpoint.json";
   Checkpoint c;
   c.mission = "elsewhere";
   write_file_atomically(file, dump_json(checkpoint_to_json(c)));
@@ -122,7 +121,6 @@ TEST(Resume, CheckpointOfAnotherMissionIsRefused) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("written by mission \"elsewhere\""), std::string::npos);
   }
-  std::filesystem::remove(file);
 }
 
 TEST(Resume, SkippedRecordsKeepTheirReasonThroughTheCheckpoint) {

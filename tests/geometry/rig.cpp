@@ -1,7 +1,5 @@
 #include "rig.hpp"
 
-#include <unistd.h>
-
 #include <opencv2/imgcodecs.hpp>
 
 #include "projtour/kinematics.hpp"
@@ -79,10 +77,6 @@ std::filesystem::path write_quadrant_content(const std::filesystem::path& dir) {
 }
 
 Rig::Rig() {
-  dir = std::filesystem::temp_directory_path() /
-        ("projtour_geometry_" + std::to_string(::getpid()) + "_" +
-         std::to_string(reinterpret_cast<std::uintptr_t>(this)));
-  std::filesystem::create_directories(dir / "targets");
   mission.name = "geometry-test";
   mission.robot = ud_like_robot();
   mission.targets = {wall_target("front", 3.0, 0.0), wall_target("left", 1.0, 4.0),
@@ -93,16 +87,8 @@ Rig::Rig() {
   pan_tilt = std::make_shared<FakePanTilt>(projector.get());
   drivers.projector = projector;
   drivers.pan_tilt = pan_tilt;
-  run_ctx.mission = &mission;
-  run_ctx.dry_run = true;
-  run_ctx.run_dir = dir;
-  run_ctx.drivers = &drivers;
-  run_ctx.blackboard = &blackboard;
-  run_ctx.clock = &clock;
-  run_ctx.log = &log;
-  ctx.run = &run_ctx;
-  ctx.cancel = &cancel;
-  ctx.params = &params;
+  // Warnings are what some tests look for; only errors go to stderr.
+  ctx = rig.context(&params);
   set_target(0);
   for (const char* name : {"aim", "project", "next", "projector", "ptu_dperception"}) {
     registry.load_library(std::filesystem::path(PROJTOUR_PLUGIN_BUILD_DIR) /
@@ -110,16 +96,8 @@ Rig::Rig() {
   }
 }
 
-Rig::~Rig() {
-  std::error_code ec;
-  std::filesystem::remove_all(dir, ec);
-}
-
 void Rig::set_target(std::size_t index) {
-  ctx.target = &mission.targets[index];
-  ctx.target_index = index;
-  ctx.target_dir = dir / "targets" / mission.targets[index].id;
-  std::filesystem::create_directories(ctx.target_dir);
+  ctx = rig.target_context(index, &params);
 }
 
 std::shared_ptr<Behaviour> Rig::make(const std::string& kind,

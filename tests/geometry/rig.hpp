@@ -15,6 +15,7 @@
 #include "projtour/logger.hpp"
 #include "projtour/mission.hpp"
 #include "projtour/plugin_loader.hpp"
+#include "projtour_test/run_rig.hpp"
 
 namespace projtour::geometry_test {
 
@@ -54,14 +55,6 @@ class FakePanTilt : public PanTiltDriver {
   int remaining_ticks_ = 0;
 };
 
-class CapturingLogger : public Logger {
- public:
-  void log(LogLevel level, const std::string& message) override {
-    if (level >= LogLevel::warning) warnings.push_back(message);
-  }
-  std::vector<std::string> warnings;
-};
-
 PinholeModel ud_projector_intrinsics();
 RobotSpec ud_like_robot();
 // A target whose front (+x) faces the map's -x, 3 m ahead of a robot at the origin, with a
@@ -73,7 +66,6 @@ std::filesystem::path write_quadrant_content(const std::filesystem::path& dir);
 
 struct Rig {
   Rig();
-  ~Rig();
   Rig(const Rig&) = delete;
   Rig& operator=(const Rig&) = delete;
   std::shared_ptr<Behaviour> make(const std::string& kind,
@@ -88,16 +80,17 @@ struct Rig {
   // First, so it is destroyed last: blackboard values set by a plugin (std::any) keep code of
   // that plugin, which must stay loaded until they are gone.
   PluginRegistry registry;
-  std::filesystem::path dir;
-  MissionSpec mission;
-  SteppedClock clock;
-  Blackboard blackboard;
-  CapturingLogger log;
+  test::RunRig rig;
+  const std::filesystem::path& dir = rig.run.run_dir;
+  MissionSpec& mission = rig.mission;
+  SteppedClock& clock = rig.clock;
+  Blackboard& blackboard = rig.blackboard;
+  test::RecordingLogger& log = rig.log;
   std::shared_ptr<FakeProjector> projector;
   std::shared_ptr<FakePanTilt> pan_tilt;
-  DriverSet drivers;
-  RunContext run_ctx;
-  CancelToken cancel;
+  DriverSet& drivers = rig.drivers;
+  RunContext& run_ctx = rig.run;
+  CancelToken& cancel = rig.cancel;
   Params params;
   Context ctx;
   std::vector<std::unique_ptr<Params>> params_keep;

@@ -204,9 +204,10 @@ TEST(Project, NonCoplanarModelPointsWarnWithResidualAndStillProject) {
   auto project = rig.make("project");
   const Outcome out = rig.run(*project);
   EXPECT_EQ(out.name, "succeeded") << out.message;
-  ASSERT_TRUE(any_contains(rig.log.warnings, "not coplanar")) << rig.log.warnings.size();
-  EXPECT_TRUE(any_contains(rig.log.warnings, "10.0 mm"));  // 40 mm / 4 from the best plane
-  EXPECT_TRUE(any_contains(rig.log.warnings, "target front"));
+  const auto warnings = rig.log.messages(LogLevel::warning);
+  ASSERT_TRUE(any_contains(warnings, "not coplanar")) << warnings.size();
+  EXPECT_TRUE(any_contains(warnings, "10.0 mm"));  // 40 mm / 4 from the best plane
+  EXPECT_TRUE(any_contains(warnings, "target front"));
 }
 
 TEST(Project, CancelBlanksAndRecordsTheTimeShown) {

@@ -8,6 +8,7 @@
 
 #include "projtour/drivers.hpp"
 #include "projtour/params_reader.hpp"
+#include "projtour_test/scoped_state.hpp"
 #include "rig.hpp"
 
 using namespace projtour;
@@ -64,20 +65,14 @@ TEST(FilesProjector, WritesEveryFrameAndRecordsBlanks) {
 
 TEST(DisplayProjector, FailsClearlyWithoutADisplay) {
   Rig rig;
-  const char* saved = std::getenv("DISPLAY");
-  const std::string saved_display = saved != nullptr ? saved : "";
-  const char* saved_w = std::getenv("WAYLAND_DISPLAY");
-  const std::string saved_wayland = saved_w != nullptr ? saved_w : "";
-  ::unsetenv("DISPLAY");
-  ::unsetenv("WAYLAND_DISPLAY");
+  const test::ScopedEnv no_display("DISPLAY", nullptr);
+  const test::ScopedEnv no_wayland("WAYLAND_DISPLAY", nullptr);
   try {
     make_driver(rig, "display", {{"screen", 1LL}});
     ADD_FAILURE() << "display driver created without a display";
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("$DISPLAY"), std::string::npos) << e.what();
   }
-  if (saved != nullptr) ::setenv("DISPLAY", saved_display.c_str(), 1);
-  if (saved_w != nullptr) ::setenv("WAYLAND_DISPLAY", saved_wayland.c_str(), 1);
 }
 
 TEST(PtuDPerception, AbsentPortIsNamedInTheError) {

@@ -1,21 +1,12 @@
 #include "dry_run.hpp"
 
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <fstream>
-#include <sstream>
+#include <optional>
 #include <stdexcept>
-#include <thread>
 
 namespace projtour::integration {
 
 namespace {
-
-const std::string kProjtour = std::string(PROJTOUR_BINARY_DIR) + "/projtour";
 
 // The leaf states of a visit: "tour/visit/capture" (any machine whose visit is one level deep).
 bool is_visit_step(const std::string& state) {
@@ -35,114 +26,18 @@ fs::path data_dir() {
   return fs::path(PROJTOUR_SOURCE_DIR) / "tests" / "integration" / "data";
 }
 
-std::string read_text(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot read " + file.string());
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
-
 std::vector<std::string> dry_run_args(const fs::path& mission, const fs::path& world,
                                       const fs::path& out, const std::vector<std::string>& extra) {
-  std::vector<std::string> args = {"run",        mission.string(), "--dry-run",
-                                   "--world",    world.string(),   "--out",
-                                   out.string(), "--plugin-path",  PROJTOUR_PLUGIN_BUILD_DIR};
+  std::vector<std::string> args = {
+      "run",        mission.string(), "--dry-run",
+      "--world",    world.string(),   "--out",
+      out.string(), "--plugin-path",  test::plugin_build_dir().string()};
   // --speed may be given once: `extra`'s own replaces the default.
   if (std::find(extra.begin(), extra.end(), "--speed") == extra.end()) {
     args.insert(args.end(), {"--speed", "0"});
   }
   args.insert(args.end(), extra.begin(), extra.end());
   return args;
-}
-
-Child::Child(const std::vector<std::string>& args, const fs::path& stdout_file,
-             const fs::path& stderr_file) {
-  std::vector<std::string> argv_strings = {kProjtour};
-  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& s : argv_strings) argv.push_back(s.data());
-  argv.push_back(nullptr);
-  pid_ = ::fork();
-  if (pid_ < 0) throw std::runtime_error("fork failed");
-  if (pid_ == 0) {
-    const int out = ::open(stdout_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int err = ::open(stderr_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (out < 0 || err < 0) ::_exit(126);
-    ::dup2(out, STDOUT_FILENO);
-    ::dup2(err, STDERR_FILENO);
-    ::execv(argv[0], argv.data());
-    ::_exit(127);
-  }
-}
-
-Child::~Child() {
-  if (!status_ && pid_ > 0) {
-    ::kill(pid_, SIGKILL);
-    int status = 0;
-    ::waitpid(pid_, &status, 0);
-  }
-}
-
-void Child::signal(int sig) const {
-  if (!status_) ::kill(pid_, sig);
-}
-
-int Child::decode(int status) {
-  if (WIFEXITED(status)) return WEXITSTATUS(status);
-  if (WIFSIGNALED(status)) return -WTERMSIG(status);
-  return -1000;
-}
-
-std::optional<int> Child::poll() {
-  if (status_) return status_;
-  int status = 0;
-  if (::waitpid(pid_, &status, WNOHANG) == pid_) status_ = decode(status);
-  return status_;
-}
-
-int Child::wait(std::chrono::milliseconds limit) {
-  const auto deadline = std::chrono::steady_clock::now() + limit;
-  while (!poll()) {
-    if (std::chrono::steady_clock::now() > deadline) {
-      ::kill(pid_, SIGKILL);
-      int status = 0;
-      ::waitpid(pid_, &status, 0);
-      status_ = -SIGKILL;
-      break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  return *status_;
-}
-
-int run_projtour(const std::vector<std::string>& args, const fs::path& log_prefix,
-                 std::chrono::milliseconds limit) {
-  Child child(args, log_prefix.string() + ".stdout", log_prefix.string() + ".stderr");
-  return child.wait(limit);
-}
-
-std::vector<Json> read_jsonl(const fs::path& file) {
-  const std::string text = read_text(file);
-  if (!text.empty() && text.back() != '\n') {
-    throw std::runtime_error(file.string() + ": the last line is cut (no newline at the end)");
-  }
-  std::vector<Json> out;
-  std::istringstream in(text);
-  std::string line;
-  int number = 0;
-  while (std::getline(in, line)) {
-    ++number;
-    try {
-      out.push_back(parse_json(line, file.string()));
-    } catch (const std::exception& e) {
-      throw std::runtime_error(file.string() + ":" + std::to_string(number) + ": " + e.what() +
-                               ": " + line);
-    }
-  }
-  return out;
-}
-
-Json read_json(const fs::path& file) {
-  return read_json_file(file);
 }
 
 std::vector<StepOutcome> step_outcomes(const std::vector<Json>& events, const std::string& target) {

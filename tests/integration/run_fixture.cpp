@@ -1,32 +1,31 @@
 #include "run_fixture.hpp"
 
-#include <unistd.h>
-
 namespace projtour::integration {
 
 void DryRunTest::SetUp() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  dir_ = fs::temp_directory_path() / ("projtour_it_" + std::to_string(::getpid()) + "_" +
-                                      info->test_suite_name() + "_" + info->name());
-  fs::remove_all(dir_);
-  fs::create_directories(dir_);
+  scratch_.emplace();
+  dir_ = scratch_->path();
 }
 
+// Here rather than in the destructor: the verdict of the test is known, and the directory goes
+// (or is kept) before the next test of the binary starts.
 void DryRunTest::TearDown() {
-  if (!HasFailure()) fs::remove_all(dir_);
+  scratch_.reset();
 }
 
 DryRunResult DryRunTest::dry_run(const std::string& world, const std::string& name,
                                  const std::vector<std::string>& extra) {
   DryRunResult r;
   r.dir = dir_ / name;
-  r.exit_code = run_projtour(dry_run_args(data_dir() / mission_, data_dir() / world, r.dir, extra),
-                             dir_ / name);
+  r.exit_code =
+      test::run_projtour(dry_run_args(data_dir() / mission_, data_dir() / world, r.dir, extra),
+                         dir_ / name)
+          .status;
   r.err = read_text(dir_ / (name + ".stderr"));
   try {
-    r.report = read_json(r.dir / "report.json");
-    read_json(r.dir / "checkpoint.json");
-    r.events = read_jsonl(r.dir / "events.jsonl");
+    const test::RunFiles files = test::read_run_files(r.dir);
+    r.report = files.report;
+    r.events = files.events;
     for (const auto& problem : projector_safety_problems(r.dir, r.events)) {
       ADD_FAILURE() << name << ": " << problem;
     }

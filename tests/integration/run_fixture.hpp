@@ -3,7 +3,10 @@
 // integration mission.
 #include <gtest/gtest.h>
 
+#include <optional>
+
 #include "dry_run.hpp"
+#include "projtour_test/temp_dir.hpp"
 
 namespace projtour::integration {
 
@@ -27,6 +30,7 @@ class DryRunTest : public ::testing::Test {
   DryRunResult dry_run(const std::string& world, const std::string& name,
                        const std::vector<std::string>& extra = {});
 
+  std::optional<test::TempDir> scratch_;  // kept when the test failed
   fs::path dir_;
   std::string mission_ = "short_tour.yaml";
 };

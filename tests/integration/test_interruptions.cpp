@@ -1,15 +1,18 @@
 // Interruptions (issue 8, item 2): dry runs of the integration tour are sent SIGINT at moments
-// spread over every step (on entering each kind of state, watched in events.jsonl, and right
-// after randomly chosen events of an uninterrupted run), then resumed with --resume on the same
-// --out. Over the two runs every target is projected exactly once, the exit statuses are 130 then 0
-// (or 3 with a reason), and no file of the run directory is ever truncated or unparsable.
+// spread over every step, then resumed with --resume on the same --out. Over the two runs every
+// target is projected exactly once, the exit statuses are 130 then 0 (or 3 with a reason), and no
+// file of the run directory is ever truncated or unparsable.
+//
+// The moments do not depend on how fast the machine is: the child stops itself (SIGSTOP, from a
+// preloaded shim of the support library, the program unchanged) right after it writes a chosen
+// events.jsonl line, or right after it installs its SIGINT handler. The test then sends the real
+// SIGINT and continues the child, so the handler runs before the child does anything more: a
+// stop right after "enter tour/visit/capture" cancels capture, on any machine.
 #include <signal.h>
 
 #include <cstdio>
 #include <map>
 #include <random>
-#include <sstream>
-#include <thread>
 
 #include "run_fixture.hpp"
 
@@ -22,31 +25,27 @@ using Clock = std::chrono::steady_clock;
 const std::vector<std::string> kTargets = {"rabbit", "open-day-sign"};
 const std::vector<std::string> kSteps = {"navigate", "aim", "capture", "align", "project", "next"};
 
-// When to send SIGINT: `after` past the moment the line `marker` (a piece of one events.jsonl
-// line) appears, or past the start of the process when there is no marker. `speed` paces the
-// run: a capture lasts one tick (a couple of milliseconds at --speed 0, less than the test polls
-// in), so the moments meant for it run at a few times real time instead.
+// When to send SIGINT: right after the child writes the first line containing `marker` (a piece
+// of one events.jsonl line), or, without a marker, right after it installs its SIGINT handler.
 struct KillMoment {
   std::string what;
   std::optional<std::string> marker;
-  std::chrono::milliseconds after{0};
-  std::string speed = "0";
-  // Wait until the process catches SIGINT (its handler is installed when `run` starts; before
-  // main, while the dynamic linker maps several hundred libraries, no program can catch it).
-  bool once_sigint_is_caught = false;
 
-  static KillMoment entering(const std::string& step, std::size_t target_index,
-                             std::chrono::milliseconds after, const std::string& speed) {
-    return {std::to_string(after.count()) + " ms into " + step + " of " + kTargets[target_index] +
-                " at --speed " + speed,
+  static KillMoment entering(const std::string& step, std::size_t target_index) {
+    return {"entering " + step + " of " + kTargets[target_index],
             R"("event": "enter", "state": "tour/visit/)" + step + R"(", "target": ")" +
-                kTargets[target_index] + "\"",
-            after, speed};
+                kTargets[target_index] + "\""};
+  }
+  // Between a step's outcome and the transition that follows it.
+  static KillMoment after_outcome(const std::string& step, std::size_t target_index) {
+    return {"after the outcome of " + step + " of " + kTargets[target_index],
+            R"("event": "outcome", "state": "tour/visit/)" + step + R"(", "target": ")" +
+                kTargets[target_index] + "\""};
   }
   // Right after one event of the uninterrupted run (the same seed gives the same lines; the
   // marker is the line as events.jsonl has it, so dump_json, not nlohmann's dump()).
   static KillMoment at_event(const Json& event) {
-    return {"after event " + dump_json(event), dump_json(event), 0ms, "0"};
+    return {"after event " + dump_json(event), dump_json(event)};
   }
 };
 
@@ -70,27 +69,10 @@ class Interruptions : public DryRunTest {
     try {
       if (fs::exists(run / "checkpoint.json")) read_json(run / "checkpoint.json");
       if (fs::exists(run / "report.json")) read_json(run / "report.json");
-      if (fs::exists(run / "events.jsonl")) {
-        std::string text = read_text(run / "events.jsonl");
-        text.erase(text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1);
-        std::size_t from = 0;
-        for (std::size_t end; (end = text.find('\n', from)) != std::string::npos; from = end + 1) {
-          parse_json(text.substr(from, end - from), "events.jsonl");
-        }
-      }
+      if (fs::exists(run / "events.jsonl")) test::read_jsonl_complete_lines(run / "events.jsonl");
     } catch (const std::exception& e) {
       ADD_FAILURE() << when << ": " << e.what();
     }
-  }
-
-  static bool catches_sigint(pid_t pid) {
-    std::istringstream status(read_text("/proc/" + std::to_string(pid) + "/status"));
-    for (std::string line; std::getline(status, line);) {
-      if (line.rfind("SigCgt:", 0) != 0) continue;
-      const unsigned long long mask = std::stoull(line.substr(7), nullptr, 16);
-      return (mask >> (SIGINT - 1)) & 1ULL;
-    }
-    return false;
   }
 
   // Interrupts one run at `k`, then resumes it; returns the step the cancel ended.
@@ -103,29 +85,22 @@ class Interruptions : public DryRunTest {
 
     std::optional<int> first_exit;
     {
-      Child child(dry_run_args(mission, world, run, {"--speed", k.speed}),
-                  dir_ / (name + "a.stdout"), dir_ / (name + "a.stderr"));
-      const auto started = Clock::now();
-      std::optional<Clock::time_point> fire_at;
-      if (!k.marker && !k.once_sigint_is_caught) fire_at = started + k.after;
-      while (!child.poll()) {
-        if (!fire_at && k.once_sigint_is_caught && catches_sigint(child.pid())) {
-          fire_at = Clock::now() + k.after;
-        }
-        if (!fire_at && fs::exists(run / "events.jsonl") &&
-            read_text(run / "events.jsonl").find(*k.marker) != std::string::npos) {
-          fire_at = Clock::now() + k.after;
-        }
-        if (fire_at && Clock::now() >= *fire_at) {
-          child.signal(SIGINT);
-          break;
-        }
-        expect_files_whole(run, when + " while running");
-        if (Clock::now() - started > 60s) {
-          ADD_FAILURE() << when << ": never reached the moment";
-          break;
-        }
-        std::this_thread::sleep_for(2ms);
+      test::ChildOptions options =
+          test::projtour_command(dry_run_args(mission, world, run), dir_ / (name + "a"));
+      if (k.marker) {
+        options.stop_after_write = *k.marker;
+      } else {
+        options.stop_after_handler_for = SIGINT;
+      }
+      Child child(options);
+      const bool stopped =
+          child.wait_stopped(60s, [&] { expect_files_whole(run, when + " while running"); });
+      if (stopped) {
+        expect_files_whole(run, when + " while stopped");
+        child.signal(SIGINT);
+        child.resume();
+      } else if (!child.poll()) {
+        ADD_FAILURE() << when << ": never reached the moment";
       }
       first_exit = child.wait(60s);
     }
@@ -160,8 +135,9 @@ class Interruptions : public DryRunTest {
     }
     const std::string step = cancelled_step(events1);
 
-    const int second_exit =
-        run_projtour(dry_run_args(mission, world, run, {"--resume"}), dir_ / (name + "b"), 120s);
+    const int second_exit = test::run_projtour(dry_run_args(mission, world, run, {"--resume"}),
+                                               dir_ / (name + "b"), 120s)
+                                .status;
     const std::string err2 = read_text(dir_ / (name + "b.stderr"));
     EXPECT_TRUE(second_exit == 0 || second_exit == 3)
         << when << ": resume exit " << second_exit << "\n"
@@ -211,10 +187,9 @@ TEST_F(Interruptions, SigintAnywhereThenResumeProjectsEveryTargetOnce) {
 
   std::vector<KillMoment> moments;
   for (const std::string& step : kSteps) {
-    const std::string speed = step == "capture" ? "4" : "0";
-    moments.push_back(KillMoment::entering(step, 0, 0ms, speed));
-    moments.push_back(KillMoment::entering(step, 1, 0ms, speed));
-    moments.push_back(KillMoment::entering(step, 0, 3ms, speed));
+    moments.push_back(KillMoment::entering(step, 0));
+    moments.push_back(KillMoment::entering(step, 1));
+    moments.push_back(KillMoment::after_outcome(step, 0));
   }
   // Any event before the last visit ends (a SIGINT after the tour is its own test below).
   std::size_t last_visit_exit = 0;
@@ -252,8 +227,7 @@ TEST_F(Interruptions, SigintAnywhereThenResumeProjectsEveryTargetOnce) {
 // Before the tour starts (plugins, map and models still loading) nothing has moved: a SIGINT
 // then must still end the run as an interruption that --resume can continue.
 TEST_F(Interruptions, SigintWhileLoadingExits130AndResumes) {
-  KillMoment loading{"as soon as the run catches SIGINT", {}, 0ms};
-  loading.once_sigint_is_caught = true;
+  const KillMoment loading{"as soon as the run catches SIGINT", {}};
   const std::string step = interrupt_and_resume(loading, 0);
   EXPECT_EQ(step, "") << "no step can have run before the tour started";
 }
@@ -261,10 +235,10 @@ TEST_F(Interruptions, SigintWhileLoadingExits130AndResumes) {
 // After the tour's last event the run is writing its report and pictures: a SIGINT then must
 // not turn a finished tour into a process killed by a signal.
 TEST_F(Interruptions, SigintAfterTheTourEndedStillExitsCleanly) {
-  const std::string step = interrupt_and_resume(
-      {"right after the tour's last event",
-       std::string(R"("state": "tour", "target": null, "outcome": "done")"), 0ms},
-      0);
+  const std::string step =
+      interrupt_and_resume({"right after the tour's last event",
+                            std::string(R"("state": "tour", "target": null, "outcome": "done")")},
+                           0);
   EXPECT_TRUE(step == "(finished)" || step == "") << step;
 }
 

@@ -1,29 +1,23 @@
 // The projector-safety check every integration test relies on, on hand-written run directories:
 // it must flag what it is there to catch, or the integration tests would pass vacuously.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <fstream>
 
 #include "dry_run.hpp"
+#include "projtour_test/temp_dir.hpp"
 
 namespace projtour::integration {
 namespace {
 
 class ProjectorSafety : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("projtour_it_safety_" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
   std::vector<std::string> problems(const std::string& log) {
     std::ofstream(dir_ / "sim_projector_log.jsonl") << log;
-    return projector_safety_problems(dir_, events_);
+    return projector_safety_problems(dir_.path(), events_);
   }
 
-  fs::path dir_;
+  test::TempDir dir_;
   // A visit whose project state ran from 10 s to 12 s.
   std::vector<Json> events_ = {
       parse_json(R"({"t": 10.0, "event": "enter", "state": "tour/visit/project", "target": "a"})",

@@ -77,11 +77,9 @@ std::vector<std::string> formatted(const Diagnostics& diag) {
 }
 
 void LoaderTest::SetUp() {
-  std::string pattern =
-      (std::filesystem::temp_directory_path() / "projtour_loader_XXXXXX").string();
-  ASSERT_NE(mkdtemp(pattern.data()), nullptr);
-  dir_path = pattern;
-  dir = pattern;
+  scratch_.emplace();
+  dir_path = scratch_->path();
+  dir = dir_path.string();
   write("map.yaml", "image: map.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n");
   write("bunny.ply", "ply\nformat ascii 1.0\nelement vertex 0\nend_header\n");
   write("robot.yaml", kRobot);
@@ -89,8 +87,7 @@ void LoaderTest::SetUp() {
 }
 
 void LoaderTest::TearDown() {
-  std::error_code ec;
-  std::filesystem::remove_all(dir_path, ec);
+  scratch_.reset();
 }
 
 std::string LoaderTest::write(const std::string& name, const std::string& text) const {

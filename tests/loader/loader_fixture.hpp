@@ -4,11 +4,14 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <optional>
+
 #include <filesystem>
 #include <string>
 #include <vector>
 
 #include "projtour/diagnostics.hpp"
+#include "projtour_test/temp_dir.hpp"
 
 namespace projtour::test {
 
@@ -32,6 +35,7 @@ class LoaderTest : public ::testing::Test {
   std::vector<std::string> mission_errors(const std::string& text) const;
   std::vector<std::string> robot_errors(const std::string& text) const;
 
+  std::optional<TempDir> scratch_;  // kept when the test failed
   std::filesystem::path dir_path;
   std::string dir;  // dir_path as a string, for building expected messages
 };

@@ -96,14 +96,9 @@ Rig::Rig(const std::string& map_file, const Pose2D& start, std::uint64_t seed, D
   world_.random.seed(static_cast<std::mt19937::result_type>(seed));
   mission_.name = "nav-test";
   mission_.start = start;
-  run_.mission = &mission_;
-  run_.dry_run = true;
+  rig_.log.set_echo(LogLevel::warning);
   run_.seed = seed;
   run_.map = map_;
-  run_.drivers = &drivers_;
-  run_.blackboard = &board_;
-  run_.clock = &clock_;
-  run_.log = &log_;
   registry_.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_localization.so");
   registry_.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_navigate.so");
   if (drivers == Drivers::harness) {
@@ -138,12 +133,8 @@ Params Rig::defaults(const std::string& kind) const {
 }
 
 Context Rig::context(const Params* params, const TargetSpec* target) {
-  Context ctx;
-  ctx.run = &run_;
+  Context ctx = rig_.context(params);
   ctx.target = target;
-  ctx.params = params;
-  ctx.cancel = &cancel_;
-  ctx.state_path = "test";
   return ctx;
 }
 

@@ -17,6 +17,7 @@
 #include "projtour/mission.hpp"
 #include "projtour/path_planner.hpp"
 #include "projtour/plugin_loader.hpp"
+#include "projtour_test/run_rig.hpp"
 
 namespace projtour::nav_test {
 
@@ -101,13 +102,12 @@ class Rig {
   PluginRegistry registry_;
   std::shared_ptr<mrpt::maps::COccupancyGridMap2D> map_;
   World world_;
-  MissionSpec mission_;
-  DriverSet drivers_;
-  Blackboard board_;
-  SteppedClock clock_;
-  StderrLogger log_;
-  CancelToken cancel_;
-  RunContext run_;
+  test::RunRig rig_;
+  MissionSpec& mission_ = rig_.mission;
+  DriverSet& drivers_ = rig_.drivers;
+  Blackboard& board_ = rig_.blackboard;
+  SteppedClock& clock_ = rig_.clock;
+  RunContext& run_ = rig_.run;
   Params localization_params_;
   std::shared_ptr<Service> localization_;
 };

@@ -9,7 +9,6 @@
 #include <mrpt/obs/CObservation2DRangeScan.h>
 #include <mrpt/obs/CRawlog.h>
 #include <mrpt/obs/CSensoryFrame.h>
-#include <unistd.h>
 
 #include <fstream>
 #include <sstream>
@@ -18,6 +17,7 @@
 #include "projtour/occupancy_map.hpp"
 #include "projtour/path_planner.hpp"
 #include "projtour_executor/localize_command.hpp"
+#include "projtour_test/temp_dir.hpp"
 
 namespace projtour {
 namespace {
@@ -48,9 +48,7 @@ std::vector<TumPose> read_tum(const std::filesystem::path& file) {
 const std::string kStartGuess = "3.4,-10,-40";
 
 std::filesystem::path run_localize(unsigned seed, const std::string& init = kStartGuess) {
-  const auto out =
-      std::filesystem::temp_directory_path() / ("projtour_localize_" + std::to_string(::getpid()) +
-                                                "_" + std::to_string(seed) + "_" + init + ".tum");
+  const auto out = test::scratch_dir() / ("localize_" + std::to_string(seed) + "_" + init + ".tum");
   std::vector<std::string> args = {"localize",  "--map", kMap,     "--rawlog",           kRawlog,
                                    "--init",    init,    "--seed", std::to_string(seed), "--out",
                                    out.string()};

@@ -2,7 +2,6 @@
 // map with exact diagnostics, and planning on the inflated grid.
 #include <gtest/gtest.h>
 #include <mrpt/maps/COccupancyGridMap2D.h>
-#include <unistd.h>
 
 #include <fstream>
 
@@ -10,6 +9,7 @@
 #include "projtour/occupancy_map.hpp"
 #include "projtour/path_planner.hpp"
 #include "projtour_executor/runner.hpp"
+#include "projtour_test/temp_dir.hpp"
 #include "test_maps.hpp"
 
 namespace projtour {
@@ -20,8 +20,7 @@ const std::string kDemoMap = PROJTOUR_SOURCE_DIR "/maps/malaga_campus.yaml";
 const std::string kMalagaSource = "/usr/share/mrpt/datasets/2006-MalagaCampus.gridmap.gz";
 
 fs::path temp_dir(const std::string& name) {
-  auto dir =
-      fs::temp_directory_path() / ("projtour_maps_" + std::to_string(::getpid()) + "_" + name);
+  const fs::path dir = test::scratch_dir() / name;
   fs::create_directories(dir);
   return dir;
 }

@@ -1,19 +1,19 @@
 // The mrpt_sensor laser driver: an absent device is a clear error naming it.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <fstream>
 
 #include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
+#include "projtour_test/run_rig.hpp"
+#include "projtour_test/temp_dir.hpp"
 
 namespace projtour {
 namespace {
 
 TEST(MrptSensor, AbsentSerialDeviceIsAnErrorNamingThePort) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("projtour_mrpt_sensor_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const test::TempDir scratch;
+  const auto dir = scratch.path();
   const auto ini = dir / "laser.ini";
   std::ofstream(ini) << "[LASER_2D]\ndriver = CHokuyoURG\nprocess_rate = 10\n"
                         "sensorLabel = HOKUYO\nCOM_port_LIN = /dev/ttyProjtourAbsent0\n";
@@ -21,9 +21,9 @@ TEST(MrptSensor, AbsentSerialDeviceIsAnErrorNamingThePort) {
   registry.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_mrpt_sensor.so");
   Params params = default_params(registry.require("mrpt_sensor").params);
   params.set("ini", ini.string());
-  RunContext run;
+  const test::RunRig rig{test::RunRig::RunDir::none};
   try {
-    registry.create_driver("mrpt_sensor", params, run);
+    registry.create_driver("mrpt_sensor", params, rig.run);
     FAIL() << "expected the driver to fail without a device";
   } catch (const PluginError& e) {
     const std::string message = e.what();
@@ -42,22 +42,21 @@ TEST(MrptSensor, UnknownDriverAndMissingIniAreErrors) {
   registry.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_mrpt_sensor.so");
   Params params = default_params(registry.require("mrpt_sensor").params);
   params.set("ini", std::string("/nonexistent/laser.ini"));
-  RunContext run;
+  const test::RunRig rig{test::RunRig::RunDir::none};
   try {
-    registry.create_driver("mrpt_sensor", params, run);
+    registry.create_driver("mrpt_sensor", params, rig.run);
     FAIL();
   } catch (const PluginError& e) {
     EXPECT_NE(std::string(e.what()).find("ini file /nonexistent/laser.ini not found"),
               std::string::npos)
         << e.what();
   }
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("projtour_mrpt_sensor_u" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const test::TempDir scratch;
+  const auto dir = scratch.path();
   std::ofstream(dir / "l.ini") << "[LASER_2D]\ndriver = CNoSuchScanner\n";
   params.set("ini", (dir / "l.ini").string());
   try {
-    registry.create_driver("mrpt_sensor", params, run);
+    registry.create_driver("mrpt_sensor", params, rig.run);
     FAIL();
   } catch (const PluginError& e) {
     EXPECT_NE(std::string(e.what()).find("unknown MRPT sensor driver \"CNoSuchScanner\""),

@@ -2,8 +2,6 @@
 // made to produce each failure outcome.
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <filesystem>
 
@@ -11,6 +9,7 @@
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/localizer.hpp"
 #include "projtour/occupancy_map.hpp"
+#include "projtour_test/temp_dir.hpp"
 #include "test_maps.hpp"
 
 namespace projtour::nav_test {
@@ -19,10 +18,7 @@ namespace {
 const std::string kDemoMap = PROJTOUR_SOURCE_DIR "/maps/malaga_campus.yaml";
 
 std::filesystem::path temp_dir() {
-  auto dir =
-      std::filesystem::temp_directory_path() / ("projtour_nav_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  return dir;
+  return test::scratch_dir();
 }
 
 struct CorridorGoal {

@@ -10,6 +10,7 @@
 #include "fixture_support.hpp"
 #include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
+#include "projtour_test/scoped_state.hpp"
 
 namespace fs = std::filesystem;
 using projtour::Family;
@@ -48,28 +49,8 @@ projtour::Params wait_params(const PluginRegistry& registry, const std::string& 
   return params;
 }
 
-class ScopedEnv {
- public:
-  ScopedEnv(const char* name, const char* value) : name_(name) {
-    if (const char* old = std::getenv(name)) old_ = old;
-    if (value != nullptr) {
-      ::setenv(name, value, 1);
-    } else {
-      ::unsetenv(name);
-    }
-  }
-  ~ScopedEnv() {
-    if (old_) {
-      ::setenv(name_.c_str(), old_->c_str(), 1);
-    } else {
-      ::unsetenv(name_.c_str());
-    }
-  }
-
- private:
-  std::string name_;
-  std::optional<std::string> old_;
-};
+using projtour::test::ScopedCurrentPath;
+using projtour::test::ScopedEnv;
 
 TEST(PluginLoader, GoodPluginRegistersEveryKind) {
   PluginRegistry registry;
@@ -262,20 +243,27 @@ TEST(PluginLoader, BehaviourRunsOnMissionTime) {
   EXPECT_EQ(outcome->message, "hello");
 }
 
-TEST(PluginLoader, LibraryStaysLoadedWhileAnObjectLives) {
-  const fs::path file = fixture("pt_fixture_good");
+// A copy of the fixture under a name of its own: no other test of this process can have loaded
+// it before (a library is never unloaded), so "not mapped yet" is a fact to start from.
+TEST(PluginLoader, LibraryStaysMappedWhileAnObjectLivesAndAfter) {
+  TempDir dir;
+  const fs::path file = dir.path() / "libpt_fixture_lifetime.so";
+  fs::copy_file(fixture("pt_fixture_good"), file);
   ASSERT_FALSE(is_loaded(file));
+  ASSERT_FALSE(projtour::test::mapped_in_this_process(file));
   TestRun run;
   std::shared_ptr<projtour::Behaviour> behaviour;
   projtour::Params params;
   {
     auto registry = std::make_unique<PluginRegistry>();
     registry->load_library(file);
+    EXPECT_TRUE(projtour::test::mapped_in_this_process(file));
     params = wait_params(*registry, "{gain: 1.0, duration_s: 0.0, fail_on_timeout: true}");
     behaviour = registry->create_behaviour("fixture_wait", params, run.run);
   }
-  // The registry is gone; the object's code and vtable must still be there.
+  // The registry is gone; the object's code and vtable must still be there, and run.
   EXPECT_TRUE(is_loaded(file));
+  EXPECT_TRUE(projtour::test::mapped_in_this_process(file));
   auto ctx = run.context(params);
   behaviour->start(ctx);
   const auto outcome = behaviour->tick(ctx);
@@ -283,8 +271,9 @@ TEST(PluginLoader, LibraryStaysLoadedWhileAnObjectLives) {
   EXPECT_EQ(outcome->name, "timed_out");
   behaviour.reset();
   // Never unmapped (RTLD_NODELETE): values a plugin left on a blackboard or in an exception
-  // may still run its code at teardown, after the last object is gone.
+  // may still run its code at teardown, after the last object and the registry are gone.
   EXPECT_TRUE(is_loaded(file));
+  EXPECT_TRUE(projtour::test::mapped_in_this_process(file));
 }
 
 TEST(PluginLoader, CreateThatThrowsNamesKindLibraryAndReason) {
@@ -407,13 +396,14 @@ TEST(PluginSearchPath, CliThenEnvironmentThenBesideTheHostLibrary) {
 TEST(PluginSearchPath, CurrentDirectoryIsNeverImplied) {
   TempDir cwd;
   fs::copy_file(fixture("pt_fixture_good"), cwd.path() / "libpt_fixture_good.so");
-  const fs::path old_cwd = fs::current_path();
-  fs::current_path(cwd.path());
-  ScopedEnv env("PROJTOUR_PLUGIN_PATH", ":");
-  const auto dirs = PluginRegistry::search_path({});
+  std::vector<fs::path> dirs;
   PluginRegistry registry;
-  registry.load_directories(dirs);
-  fs::current_path(old_cwd);
+  {
+    ScopedCurrentPath in_cwd(cwd.path());
+    ScopedEnv env("PROJTOUR_PLUGIN_PATH", ":");
+    dirs = PluginRegistry::search_path({});
+    registry.load_directories(dirs);
+  }
   for (const auto& dir : dirs) EXPECT_TRUE(dir.is_absolute()) << dir;
   EXPECT_EQ(registry.find("fixture_wait"), nullptr);
 }
@@ -421,11 +411,11 @@ TEST(PluginSearchPath, CurrentDirectoryIsNeverImplied) {
 TEST(PluginSearchPath, NamedCurrentDirectoryIsSearched) {
   TempDir cwd;
   fs::copy_file(fixture("pt_fixture_good"), cwd.path() / "libpt_fixture_good.so");
-  const fs::path old_cwd = fs::current_path();
-  fs::current_path(cwd.path());
   PluginRegistry registry;
-  registry.load_directories(PluginRegistry::search_path({"."}));
-  fs::current_path(old_cwd);
+  {
+    ScopedCurrentPath in_cwd(cwd.path());
+    registry.load_directories(PluginRegistry::search_path({"."}));
+  }
   EXPECT_NE(registry.find("fixture_wait"), nullptr);
 }
 

@@ -2,22 +2,20 @@
 // Scenes shared by the sim tests and bench_render: a walled room, Kinect intrinsics, cameras.
 #include <mrpt/maps/COccupancyGridMap2D.h>
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <memory>
 #include <string>
 
 #include "projtour/geometry.hpp"
 #include "projtour/pinhole.hpp"
+#include "projtour_test/temp_dir.hpp"
 
 namespace projtour::sim::testing {
 
 // ctest runs every test case as its own process, in parallel: a fixed /tmp name lets one case
-// read a file another is rewriting (CI saw a half-written OFF), so each process gets its own.
+// read a file another is rewriting (CI saw a half-written OFF), so each test gets its own.
 inline std::filesystem::path test_temp_path(const std::string& name) {
-  return std::filesystem::temp_directory_path() /
-         ("projtour_test_sim_" + std::to_string(::getpid()) + "_" + name);
+  return test::scratch_dir() / name;
 }
 
 inline PinholeModel kinect_intrinsics() {

@@ -8,6 +8,7 @@
 #include "projtour/context.hpp"
 #include "projtour/mission_loader.hpp"
 #include "projtour_sim/sim_drivers.hpp"
+#include "projtour_test/run_rig.hpp"
 #include "sim_test_scenes.hpp"
 
 namespace projtour::sim::testing {
@@ -26,9 +27,10 @@ inline std::filesystem::path sign_off() {
 }
 
 struct Rig {
-  MissionSpec mission;
-  WorldSpec world;
-  RunContext run;
+  test::RunRig rig{test::RunRig::RunDir::none};
+  MissionSpec& mission = rig.mission;
+  WorldSpec& world = rig.world;
+  RunContext& run = rig.run;
   std::shared_ptr<SimWorld> sim;
 
   // The sign at (3, 0, 0.9) facing -x; the robot starts at `start` in a room [-1.5, 5] x
@@ -54,8 +56,9 @@ struct Rig {
     world.model_error = false;
     world.calibration_error_mm = 0.0;
     world.calibration_error_deg = 0.0;
-    run.mission = &mission;
-    run.world = &world;
+    // The world alone, as SimWorld is made from it, without a run directory to write to.
+    rig.use_world();
+    run.dry_run = false;
     run.seed = seed;
     if (with_map) run.map = room_grid(-1.5f, 5.0f, -2.5f, 2.5f);
   }

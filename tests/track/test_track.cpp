@@ -3,8 +3,6 @@
 // bunny, aligns, projects, and the simulator nudges the target 2 cm sideways during the dwell.
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
@@ -23,6 +21,7 @@
 #include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
 #include "projtour/projection.hpp"
+#include "projtour_test/run_rig.hpp"
 
 namespace projtour {
 namespace {
@@ -33,12 +32,6 @@ constexpr double kFramePeriodS = 1.0 / 30.0;  // the UD's Kinect; the test ticks
 constexpr double kNudgeM = 0.02;
 constexpr double kNudgeAfterS = 1.0;
 constexpr double kDwellS = 2.5;
-
-class RecordingLogger : public Logger {
- public:
-  void log(LogLevel, const std::string& message) override { lines.push_back(message); }
-  std::vector<std::string> lines;
-};
 
 fs::path write_content(const fs::path& dir) {
   cv::Mat image(300, 400, CV_8UC3, cv::Scalar(30, 160, 230));
@@ -84,10 +77,8 @@ class DryRun {
  public:
   // `exact_calibration`: the robot's camera-projector calibration is the truth (no error), so
   // what remains is the alignment's and the tracking's own error.
-  DryRun(const std::string& name, bool exact_calibration) {
-    dir_ =
-        fs::temp_directory_path() / ("projtour_track_" + name + "_" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
+  DryRun(const std::string& /*name: the caller's label; the rig's directory is per test*/,
+         bool exact_calibration) {
     for (const char* plugin : {"sim", "capture", "align", "project"}) {
       registry.load_library(fs::path(PROJTOUR_PLUGIN_BUILD_DIR) /
                             ("libprojtour_" + std::string(plugin) + ".so"));
@@ -118,15 +109,8 @@ class DryRun {
     if (!loaded) throw std::runtime_error("cannot load the world file: " + diag.format());
     world = *loaded;
 
-    run.mission = &mission;
-    run.world = &world;
-    run.dry_run = true;
+    rig.use_world();
     run.seed = 5;
-    run.run_dir = dir_;
-    run.drivers = &drivers;
-    run.blackboard = &blackboard;
-    run.clock = &clock;
-    run.log = &log;
     drivers.base = driver<BaseDriver>("sim_base");
     drivers.laser = driver<LaserDriver>("sim_laser");
     drivers.pan_tilt = driver<PanTiltDriver>("sim_pan_tilt");
@@ -134,7 +118,7 @@ class DryRun {
     drivers.projector = driver<ProjectorDriver>("sim_projector", {{"log_file", std::string()}});
     truth = drivers.ground_truth();
     if (truth == nullptr) throw std::runtime_error("the sim drivers know no truth");
-    ctx.run = &run;
+    ctx = rig.context();
     ctx.target = &mission.targets[0];
     ctx.target_dir = dir_;
     // Localization at the truth: this test is about the camera-projector path, not the base.
@@ -143,7 +127,6 @@ class DryRun {
     blackboard.set(keys::kLocalization, localization);
     step();
   }
-  ~DryRun() { fs::remove_all(dir_); }
 
   // One tick of mission time: every driver updates (the world advances once), as the executor.
   void step() {
@@ -232,13 +215,14 @@ class DryRun {
 
   // First, so it is destroyed last: blackboard values set by a plugin keep code of that plugin.
   PluginRegistry registry;
-  MissionSpec mission;
-  WorldSpec world;
-  RunContext run;
-  DriverSet drivers;
-  Blackboard blackboard;
-  SteppedClock clock;
-  RecordingLogger log;
+  test::RunRig rig;
+  MissionSpec& mission = rig.mission;
+  WorldSpec& world = rig.world;
+  RunContext& run = rig.run;
+  DriverSet& drivers = rig.drivers;
+  Blackboard& blackboard = rig.blackboard;
+  SteppedClock& clock = rig.clock;
+  test::RecordingLogger& log = rig.log;
   Context ctx;
   GroundTruth* truth = nullptr;
   double projection_started_s = 0.0;
@@ -254,7 +238,7 @@ class DryRun {
     return d;
   }
 
-  fs::path dir_;
+  const fs::path dir_ = rig.run.run_dir;
   long long ticks_ = 0;
   std::vector<std::unique_ptr<Params>> params_;
 };
@@ -287,7 +271,7 @@ long frames_until_under(std::vector<Shown>::const_iterator nudge, const std::vec
 }
 
 std::string tracking_summary(const DryRun& dry) {
-  for (const std::string& line : dry.log.lines) {
+  for (const std::string& line : dry.log.messages()) {
     if (line.find("tracking:") != std::string::npos) return line;
   }
   return "";
@@ -377,7 +361,8 @@ TEST(Track, FramesFailingTheGateAreNotFollowed) {
   EXPECT_NEAR(mean_error_mm(nudge, shown.end()), kNudgeM * 1e3, 5.0);
   const std::string summary = tracking_summary(dry);
   EXPECT_NE(summary.find(" 0 passed the gate, 0 re-warps"), std::string::npos) << summary;
-  const bool warned = std::any_of(dry.log.lines.begin(), dry.log.lines.end(), [](const auto& l) {
+  const std::vector<std::string> lines = dry.log.messages();
+  const bool warned = std::any_of(lines.begin(), lines.end(), [](const auto& l) {
     return l.find("frames in a row failed the tracking gate") != std::string::npos;
   });
   EXPECT_TRUE(warned);

@@ -12,6 +12,8 @@
 
 #include "projtour_executor/atomic_file.hpp"
 #include "projtour_executor/summary_page.hpp"
+#include "projtour_test/process.hpp"
+#include "projtour_test/temp_dir.hpp"
 
 namespace projtour {
 namespace {
@@ -81,11 +83,6 @@ Json make_report() {
 class SummaryPageTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    run_dir_ = fs::temp_directory_path() /
-               ("projtour_summary_" + std::to_string(::getpid()) + "_" + info->name());
-    fs::remove_all(run_dir_);
-    fs::create_directories(run_dir_);
     write_file_atomically(run_dir_ / "report.json", dump_json(make_report(), 2));
     write_png(run_dir_ / "tour.png", {255, 255, 255});
     for (const char* name : {"alignment.png", "projector.png", "before.png", "after.png"}) {
@@ -93,7 +90,6 @@ class SummaryPageTest : public ::testing::Test {
     }
     write_png(run_dir_ / "targets" / "pillar #2" / "alignment.png", {255, 0, 0});
   }
-  void TearDown() override { fs::remove_all(run_dir_); }
 
   std::string write_page() {
     write_summary_page(read_summary_input(run_dir_), run_dir_);
@@ -101,7 +97,8 @@ class SummaryPageTest : public ::testing::Test {
     return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   }
 
-  fs::path run_dir_;
+  test::TempDir scratch_;
+  const fs::path run_dir_ = scratch_.path();
 };
 
 bool contains(const std::string& haystack, const std::string& needle) {
@@ -175,21 +172,24 @@ struct LoadedImage {
 std::vector<LoadedImage> load_in_chromium(const fs::path& html, const fs::path& scratch) {
   const fs::path profile = scratch / "chromium-profile";
   fs::create_directories(profile);
-  const std::string cmd =
-      "timeout 60 " + chromium_command() +
-      " --headless --no-sandbox --disable-gpu --disable-quic --no-first-run"
-      " --disable-background-networking --disable-component-update --disable-sync"
-      " --user-data-dir='" +
-      profile.string() + "' --virtual-time-budget=5000 --dump-dom 'file://" + html.string() +
-      "' 2>/dev/null";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (pipe == nullptr) throw std::runtime_error("cannot run " + cmd);
-  std::string dom;
-  char buf[4096];
-  while (std::size_t n = std::fread(buf, 1, sizeof buf, pipe)) dom.append(buf, n);
-  const int status = ::pclose(pipe);
+  test::ChildOptions chromium;
+  chromium.argv = {chromium_command(),
+                   "--headless",
+                   "--no-sandbox",
+                   "--disable-gpu",
+                   "--disable-quic",
+                   "--no-first-run",
+                   "--disable-background-networking",
+                   "--disable-component-update",
+                   "--disable-sync",
+                   "--user-data-dir=" + profile.string(),
+                   "--virtual-time-budget=5000",
+                   "--dump-dom",
+                   "file://" + html.string()};
+  const test::RunResult r = test::run(chromium, std::chrono::seconds(60));
   fs::remove_all(profile);
-  if (status != 0) throw std::runtime_error("chromium failed (" + std::to_string(status) + ")");
+  if (r.status != 0) throw std::runtime_error("chromium failed (" + std::to_string(r.status) + ")");
+  const std::string& dom = r.out;
   std::vector<LoadedImage> images;
   const std::regex img(R"(<img\b[^>]*>)");
   const std::regex src(R"re(\bsrc="([^"]*)")re");

@@ -1,7 +1,5 @@
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <filesystem>
 #include <memory>
@@ -11,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "projtour_executor/tour_picture.hpp"
+#include "projtour_test/temp_dir.hpp"
 
 namespace projtour {
 namespace {
@@ -187,8 +186,8 @@ TEST(TourPicture, ALabelWiderThanEitherSideOfItsMarkerStaysInThePicture) {
 }
 
 TEST(TourPicture, WritesAPng) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("projtour_tour_picture_" + std::to_string(::getpid()));
+  const test::TempDir scratch;
+  const auto dir = scratch.path();
   const auto png = dir / "run" / "tour.png";
   write_tour_picture(make_input(), png);
   const cv::Mat back = cv::imread(png.string(), cv::IMREAD_COLOR);
@@ -196,7 +195,6 @@ TEST(TourPicture, WritesAPng) {
   const cv::Mat expected = render_tour_picture(make_input());
   EXPECT_EQ(back.size(), expected.size());
   EXPECT_EQ(cv::norm(back, expected, cv::NORM_INF), 0.0);
-  std::filesystem::remove_all(dir);
 }
 
 TEST(SimplifyPolyline, DropsStandingAndStraightSamplesAndKeepsCornersAndTurnarounds) {
