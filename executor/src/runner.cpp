@@ -30,9 +30,13 @@ namespace projtour {
 
 namespace {
 
-volatile std::sig_atomic_t g_stop_signal = 0;
-volatile std::sig_atomic_t g_pause_signal = 0;
-volatile std::sig_atomic_t g_resume_signal = 0;
+// Atomics, not volatile sig_atomic_t: a signal may be delivered to any thread of the process
+// (the watchdog's too), and only a lock-free atomic is both async-signal-safe and ordered
+// across threads (ThreadSanitizer reported the volatile flags racing with the tick loop).
+std::atomic<int> g_stop_signal{0};
+std::atomic<int> g_pause_signal{0};
+std::atomic<int> g_resume_signal{0};
+static_assert(std::atomic<int>::is_always_lock_free, "signal flags must be lock-free atomics");
 
 extern "C" void on_stop_signal(int signal) {
   g_stop_signal = signal;
