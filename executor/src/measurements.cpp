@@ -30,7 +30,7 @@ void measure_navigate(const Context& ctx, const NavigateResult& result, GroundTr
 void measure_align(const Context& ctx, const AlignResult& result, GroundTruth* truth,
                    TargetMeasurements& out) {
   if (const auto& q = result.quality) {
-    out.align = AlignFigures{q->method, q->time_ms, q->iterations, q->inlier_fraction, q->rmse_mm};
+    out.align = *q;
   }
   if (truth == nullptr || ctx.target == nullptr || !result.T_camera_model) return;
   const Eigen::Isometry3d& T_camera_model = *result.T_camera_model;

@@ -5,17 +5,13 @@
 #include <optional>
 #include <string>
 
+#include "projtour/blackboard_keys.hpp"
 #include "projtour_executor/json_io.hpp"
 
 namespace projtour {
 
-struct AlignFigures {
-  std::string method;
-  double time_ms = 0.0;
-  int iterations = 0;
-  double inlier_fraction = 0.0;
-  double rmse_mm = 0.0;
-};
+// The report's align figures are align's published quality, field for field.
+using AlignFigures = AlignQuality;
 
 // The localization estimate against the simulator's true base pose, on the floor plane.
 struct LocalizationError {
