@@ -63,7 +63,7 @@ void measure_project(const Context& ctx, const ProjectResult& result, GroundTrut
     out.projection_error_px = px;
   }
   if (before && after && !ctx.target_dir.empty()) {
-    truth->write_projection_views(ctx.target->id, *before, *after, ctx.target_dir);
+    truth->write_projection_views(ctx.target->id, *before, *after, std::nullopt, ctx.target_dir);
   }
 }
 

@@ -100,6 +100,9 @@ void assign_driver(DriverSet& set, const std::string& interface, std::shared_ptr
     set.depth_camera = std::dynamic_pointer_cast<DepthCameraDriver>(d);
   }
   if (interface == "projector") set.projector = std::dynamic_pointer_cast<ProjectorDriver>(d);
+  if (interface == "colour_camera") {
+    set.colour_camera = std::dynamic_pointer_cast<ColourCameraDriver>(d);
+  }
 }
 
 // Tells the simulated world which target each visit is for (GroundTruth::set_visited_target).

@@ -189,7 +189,7 @@ TEST(SimReferee, WritesBeforeAndAfterViews) {
   for (auto& p : before) p += Eigen::Vector2d(40.0, -25.0);
   const auto dir = testing::test_temp_path("views");
   std::filesystem::remove_all(dir);
-  w.write_projection_views("sign", before, px, dir);
+  w.write_projection_views("sign", before, px, std::nullopt, dir);
   for (const char* name : {"before.png", "after.png"}) {
     const cv::Mat image = cv::imread((dir / name).string());
     ASSERT_FALSE(image.empty()) << name;

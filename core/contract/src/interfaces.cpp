@@ -50,7 +50,7 @@ std::size_t DepthFrame::valid_count() const {
 std::vector<std::shared_ptr<Driver>> DriverSet::all() const {
   std::vector<std::shared_ptr<Driver>> out;
   for (std::shared_ptr<Driver> d : std::initializer_list<std::shared_ptr<Driver>>{
-           base, laser, pan_tilt, depth_camera, projector}) {
+           base, laser, pan_tilt, depth_camera, projector, colour_camera}) {
     if (d) out.push_back(std::move(d));
   }
   return out;

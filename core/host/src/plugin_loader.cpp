@@ -65,8 +65,8 @@ PluginRegistry::~PluginRegistry() = default;
 
 namespace {
 
-constexpr std::array<const char*, 5> kDriverInterfaces = {"base", "laser", "pan_tilt",
-                                                          "depth_camera", "projector"};
+constexpr std::array<const char*, 6> kDriverInterfaces = {
+    "base", "laser", "pan_tilt", "depth_camera", "projector", "colour_camera"};
 
 std::string in_quotes(const std::string& text) {
   return "\"" + text + "\"";
@@ -166,7 +166,7 @@ KindInfo read_kind(const fs::path& file, const projtour_kind_desc& d, std::size_
       if (std::find(kDriverInterfaces.begin(), kDriverInterfaces.end(), kind.interface) ==
           kDriverInterfaces.end()) {
         fail(file, where + "driver interface " + in_quotes(kind.interface) +
-                       " is not one of base, laser, pan_tilt, depth_camera, projector");
+                       " is not one of base, laser, pan_tilt, depth_camera, projector, colour_camera");
       }
       break;
     case Family::service:
@@ -256,6 +256,9 @@ bool implements(const Driver& driver, const std::string& interface) {
     return dynamic_cast<const DepthCameraDriver*>(&driver) != nullptr;
   }
   if (interface == "projector") return dynamic_cast<const ProjectorDriver*>(&driver) != nullptr;
+  if (interface == "colour_camera") {
+    return dynamic_cast<const ColourCameraDriver*>(&driver) != nullptr;
+  }
   return false;
 }
 

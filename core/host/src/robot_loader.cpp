@@ -217,7 +217,8 @@ std::optional<LoadedRobot> read_robot(const YAML::Node& node, const std::string&
   read_pan_tilt(root["pan_tilt"], robot.pan_tilt);
   read_camera(root["camera"], robot.camera);
   read_projector(root["projector"], robot.projector);
-  read_instances(root["drivers"], {"base", "laser", "pan_tilt", "depth_camera", "projector"},
+  read_instances(root["drivers"],
+                 {"base", "laser", "pan_tilt", "depth_camera", "projector", "colour_camera"},
                  robot.drivers);
   const YamlField services = root["services"];
   read_instances(services, {"localization"}, robot.services);

@@ -851,6 +851,7 @@ void SimWorld::set_visited_target(const std::string& target_id) {
 void SimWorld::write_projection_views(const std::string& target_id,
                                       const std::array<Eigen::Vector2d, 4>& pixels_before_align,
                                       const std::array<Eigen::Vector2d, 4>& pixels_after_align,
+                                      const std::optional<std::array<Eigen::Vector2d, 4>>&,
                                       const std::filesystem::path& dir) const {
   const Impl::Target* t = impl_->target(target_id);
   if (t == nullptr) throw std::out_of_range("simulated world: no target '" + target_id + "'");

@@ -14,6 +14,7 @@
 #include "projtour/drivers.hpp"
 #include "projtour/geometry.hpp"
 #include "projtour/model_cloud.hpp"
+#include "projtour/robot.hpp"
 
 namespace projtour {
 
@@ -61,6 +62,43 @@ struct ProjectResult {
   std::optional<Eigen::Isometry3d> T_camera_model_tracked;  // when tracking moved the pose
 };
 
+// calibrate: the camera-projector calibration the robot believes in now. Tour scope: measured on
+// one target, it stands for the rest of the run until a later measurement replaces it.
+struct ProjectorCalibration {
+  MountSpec projector_mount;  // the estimated mount, as the robot file writes it
+  Eigen::Isometry3d T_projector_camera = Eigen::Isometry3d::Identity();  // at `joints`
+  JointAngles joints;
+  std::string target;  // where it was measured
+  double t_s = 0.0;    // mission time of the measurement
+  int correspondences = 0;
+  int inliers = 0;
+  double rms_px = 0.0;  // reprojection error in the projector over the inliers
+};
+
+// calibrate: what this visit's structured-light sequence found, adopted or not.
+struct CalibrateResult {
+  int decoded_blocks = 0;  // projector blocks decoded on the target
+  int inliers = 0;
+  double rms_px = 0.0;
+  double sequence_s = 0.0;  // mission time from the first pattern to the last frame
+  double compute_ms = 0.0;  // decode and fit
+  // The measured calibration against the one believed before, at the target's distance.
+  double change_mm = 0.0;
+  double change_deg = 0.0;
+  bool adopted = false;
+};
+
+// verify: where the colour camera saw the content's corners land, against the Model Points at
+// the aligned pose, and how much of the light fell on the target.
+struct VerifyResult {
+  std::optional<double> observed_error_mm;  // mean over the four corners; absent if not seen
+  std::array<std::optional<double>, 4> corner_error_mm;
+  std::optional<std::array<Eigen::Vector2d, 4>> observed_colour_px;
+  std::array<Eigen::Vector2d, 4> expected_colour_px{};  // the Model Points, aligned pose
+  double light_on_target_fraction = 0.0;
+  double tolerance_mm = 0.0;
+};
+
 namespace keys {
 
 // The localization service's estimate of T_map_base, every tick.
@@ -78,6 +116,10 @@ inline constexpr Key<NavigateResult> kNavigate{"navigate", KeyScope::visit, "Nav
 inline constexpr Key<CapturedFrame> kCapture{"capture", KeyScope::visit, "CapturedFrame"};
 inline constexpr Key<AlignResult> kAlign{"align", KeyScope::visit, "AlignResult"};
 inline constexpr Key<ProjectResult> kProject{"project", KeyScope::visit, "ProjectResult"};
+inline constexpr Key<ProjectorCalibration> kCalibration{"calibration", KeyScope::tour,
+                                                        "ProjectorCalibration"};
+inline constexpr Key<CalibrateResult> kCalibrate{"calibrate", KeyScope::visit, "CalibrateResult"};
+inline constexpr Key<VerifyResult> kVerify{"verify", KeyScope::visit, "VerifyResult"};
 
 }  // namespace keys
 }  // namespace projtour

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "projtour/colour_frame.hpp"
 #include "projtour/depth_frame.hpp"
 #include "projtour/geometry.hpp"
 
@@ -89,6 +90,16 @@ class DepthCameraDriver : public Driver {
   virtual std::optional<DepthFrame> grab() = 0;
 };
 
+// The Kinect's colour camera, registered to the depth camera by the robot file's
+// camera.depth_to_color_m: its optical frame is the robot's `camera` frame.
+class ColourCameraDriver : public Driver {
+ public:
+  // The newest frame not yet returned, or nullopt. Throws DriverError when the device is gone.
+  virtual std::optional<ColourFrame> grab() = 0;
+  // Fixed exposure for the frames that follow (structured light needs it fixed); 0 = automatic.
+  virtual void set_exposure_ms(double exposure_ms) = 0;
+};
+
 class ProjectorDriver : public Driver {
  public:
   // Shows a BGR frame of the projector's size. Throws DriverError when the device fails.
@@ -104,6 +115,7 @@ struct DriverSet {
   std::shared_ptr<PanTiltDriver> pan_tilt;
   std::shared_ptr<DepthCameraDriver> depth_camera;
   std::shared_ptr<ProjectorDriver> projector;
+  std::shared_ptr<ColourCameraDriver> colour_camera;  // optional: the closed loop needs it
 
   std::vector<std::shared_ptr<Driver>> all() const;
   // The first driver that knows the truth, or null (hardware).

@@ -16,6 +16,15 @@ struct ProjectionTruth {
   // Model Point truly is (mm), and the same in projector pixels.
   std::array<double, 4> error_mm{};
   std::array<double, 4> error_px{};
+  // Over the whole content area, so nothing passes by landing four corners well: a grid of
+  // content points, where the robot's warp (the homography its four pixels define) puts each
+  // on the true surface against where the perfect warp (true projector, true Model Points)
+  // would (mm).
+  double area_error_mean_mm = 0.0;
+  double area_error_max_mm = 0.0;
+  // Share of the content's light that lands on anything but the target (an occluder, a
+  // person, the wall behind), by the true projector's rays through the content area.
+  double light_off_target_fraction = 0.0;
   double mean_mm() const;
   double mean_px() const;
 };
@@ -35,11 +44,14 @@ class GroundTruth {
   // else; behaviours never call this.
   virtual void set_visited_target(const std::string& target_id) = 0;
   // Writes before.png and after.png into `dir`: a virtual camera in front of the target showing
-  // it shaded, the projected quadrilateral where it really lands and the true Model Points.
-  virtual void write_projection_views(const std::string& target_id,
-                                      const std::array<Eigen::Vector2d, 4>& pixels_before_align,
-                                      const std::array<Eigen::Vector2d, 4>& pixels_after_align,
-                                      const std::filesystem::path& dir) const = 0;
+  // it shaded, the projected quadrilateral where it really lands and the true Model Points;
+  // beside it the colour camera's view of the content as last shown, with the true Model
+  // Points and (when given) the corners the robot observed in that camera's pixels.
+  virtual void write_projection_views(
+      const std::string& target_id, const std::array<Eigen::Vector2d, 4>& pixels_before_align,
+      const std::array<Eigen::Vector2d, 4>& pixels_after_align,
+      const std::optional<std::array<Eigen::Vector2d, 4>>& observed_colour_px,
+      const std::filesystem::path& dir) const = 0;
 };
 
 }  // namespace projtour

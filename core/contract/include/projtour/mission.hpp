@@ -23,6 +23,9 @@ struct TargetSpec {
   std::filesystem::path content;
   double standoff_m = 1.0;
   double dwell_s = 10.0;
+  // A visit counts as projected only when the colour camera sees the content's corners land
+  // within this of the Model Points (verify's gate).
+  double tolerance_mm = 3.0;
 };
 
 struct MissionSpec {

@@ -110,7 +110,8 @@ constexpr projtour_kind_desc behaviour_kind(const char* name, const char* descri
           0};
 }
 
-// `interface`: "base" | "laser" | "pan_tilt" | "depth_camera" | "projector".
+// `interface`: "base" | "laser" | "pan_tilt" | "depth_camera" | "projector" |
+// "colour_camera".
 template <typename T, size_t NP>
 constexpr projtour_kind_desc driver_kind(const char* name, const char* interface,
                                          const char* description,

@@ -26,7 +26,8 @@ struct PluginInstanceSpec {
 
 // The robot file: the view plugins get (RobotSpec) and the kinds that run it.
 struct LoadedRobot : RobotSpec {
-  // Hardware drivers by interface: "base", "laser", "pan_tilt", "depth_camera", "projector".
+  // Hardware drivers by interface: "base", "laser", "pan_tilt", "depth_camera", "projector",
+  // "colour_camera".
   std::map<std::string, PluginInstanceSpec> drivers;
   // Tour-long services by role, e.g. "localization".
   std::map<std::string, PluginInstanceSpec> services;

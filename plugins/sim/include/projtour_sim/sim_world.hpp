@@ -116,6 +116,7 @@ class SimWorld : public GroundTruth {
   void write_projection_views(const std::string& target_id,
                               const std::array<Eigen::Vector2d, 4>& pixels_before_align,
                               const std::array<Eigen::Vector2d, 4>& pixels_after_align,
+                              const std::optional<std::array<Eigen::Vector2d, 4>>& observed_colour_px,
                               const std::filesystem::path& dir) const override;
 
  private:

@@ -1,0 +1,30 @@
+#pragma once
+// The depth frame registered into the colour camera (the paper's eq. 2): each depth reading
+// lifted into the depth optical frame, moved by depth_to_color_m into the colour optical frame
+// (the robot's camera frame), and z-buffered into the colour image. Colour pixels are lifted to
+// 3-D against it by a local plane fit, which averages the Kinect's noise.
+#include <Eigen/Core>
+#include <optional>
+#include <vector>
+
+#include "projtour/depth_frame.hpp"
+#include "projtour/pinhole.hpp"
+
+namespace projtour::light {
+
+struct RegisteredDepth {
+  PinholeModel colour;
+  std::vector<float> z_m;  // colour width * height, along the colour optical axis; 0 = none
+  float at(int u, int v) const { return z_m[static_cast<std::size_t>(v) * colour.width + u]; }
+};
+
+RegisteredDepth register_depth(const DepthFrame& depth, const Eigen::Vector3d& depth_to_color_m,
+                               const PinholeModel& colour);
+
+// The 3-D point (camera frame) where the colour ray through `colour_px` (distorted pixel) meets
+// the plane fitted to the registered depth within `window_px` of it; nullopt with too few
+// readings there or a fit whose spread is larger than `max_spread_m` (an edge, two surfaces).
+std::optional<Eigen::Vector3d> lift(const RegisteredDepth& depth, const Eigen::Vector2d& colour_px,
+                                    int window_px = 4, double max_spread_m = 0.02);
+
+}  // namespace projtour::light
