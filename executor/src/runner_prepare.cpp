@@ -9,8 +9,8 @@ namespace projtour {
 
 namespace {
 
-const std::vector<std::string> kInterfaces = {"base",      "laser",        "pan_tilt", "depth_camera",
-                                              "projector", "colour_camera"};
+const std::vector<std::string> kInterfaces = {"base",         "laser",     "pan_tilt",
+                                              "depth_camera", "projector", "colour_camera"};
 
 // Checks a robot-file instance (driver or service) against its kind and schema.
 std::optional<InstanceChoice> check_instance(const PluginRegistry& registry,

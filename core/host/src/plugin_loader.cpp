@@ -165,8 +165,9 @@ KindInfo read_kind(const fs::path& file, const projtour_kind_desc& d, std::size_
     case Family::driver:
       if (std::find(kDriverInterfaces.begin(), kDriverInterfaces.end(), kind.interface) ==
           kDriverInterfaces.end()) {
-        fail(file, where + "driver interface " + in_quotes(kind.interface) +
-                       " is not one of base, laser, pan_tilt, depth_camera, projector, colour_camera");
+        fail(file,
+             where + "driver interface " + in_quotes(kind.interface) +
+                 " is not one of base, laser, pan_tilt, depth_camera, projector, colour_camera");
       }
       break;
     case Family::service:

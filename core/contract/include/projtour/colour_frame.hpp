@@ -13,7 +13,7 @@ struct ColourFrame {
   PinholeModel intrinsics;  // of the colour image, with its lens distortion
   int width = 0;
   int height = 0;
-  double exposure_ms = 0.0;        // what the camera really used
+  double exposure_ms = 0.0;       // what the camera really used
   std::vector<std::uint8_t> bgr;  // width * height * 3
 
   const std::uint8_t* pixel(int u, int v) const {

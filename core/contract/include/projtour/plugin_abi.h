@@ -61,7 +61,8 @@ typedef struct projtour_kind_desc {
   const char* name;      /* unique over all plugins: "align", "sim_base" */
   int32_t family;        /* projtour_family */
   const char* interface; /* drivers: "base" | "laser" | "pan_tilt" | "depth_camera" |
-                            "projector" | "colour_camera"; services: their role ("localization"); else NULL */
+                            "projector" | "colour_camera"; services: their role ("localization");
+                            else NULL */
   const char* description;
   const projtour_param_desc* params;
   uint32_t param_count;

@@ -52,8 +52,8 @@ struct PanTiltSpec {
 // The Kinect v1 colour camera (defaults: 640x480, Burrus' calibration of its lens). Its optical
 // frame is the robot's `camera` frame; the depth camera sits at -depth_to_color_m in it.
 struct ColourCameraSpec {
-  PinholeModel intrinsics{640, 480, 525.0, 525.0, 319.5, 239.5,
-                          {0.2624, -0.9531, -0.0054, 0.0026, 1.1633}};
+  PinholeModel intrinsics{
+      640, 480, 525.0, 525.0, 319.5, 239.5, {0.2624, -0.9531, -0.0054, 0.0026, 1.1633}};
   double rate_hz = 30.0;
 };
 
@@ -72,9 +72,9 @@ struct CameraSpec {
 // The self-calibration's Gray-code sequence (the calibrate step): its length follows from the
 // projector's size and block_px, 2 * (ceil(log2(w / block)) + ceil(log2(h / block))) + 2 frames.
 struct StructuredLightSpec {
-  int block_px = 16;           // the finest stripe, in projector pixels (the camera must resolve it)
-  double hold_s = 1.0 / 30.0;  // each pattern is lit this long before its frame counts
-  double exposure_ms = 20.0;   // fixed colour exposure during the sequence (0 = automatic)
+  int block_px = 16;  // the finest stripe, in projector pixels (the camera must resolve it)
+  double hold_s = 1.0 / 30.0;    // each pattern is lit this long before its frame counts
+  double exposure_ms = 20.0;     // fixed colour exposure during the sequence (0 = automatic)
   int min_correspondences = 40;  // fewer decoded blocks on the target: too_few_points
   double max_residual_px = 1.5;  // larger RMS reprojection error in the projector: poor_fit
 };

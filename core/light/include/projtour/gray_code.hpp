@@ -6,8 +6,8 @@
 // Order of the frames: 0 = all white, 1 = all black (the shadow mask), then for each column
 // bit, most significant first, the pattern and its inverse; then the same for the row bits.
 #include <Eigen/Core>
-#include <opencv2/core.hpp>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 

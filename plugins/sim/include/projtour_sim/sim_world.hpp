@@ -113,11 +113,11 @@ class SimWorld : public GroundTruth {
       const std::string& target_id,
       const std::array<Eigen::Vector2d, 4>& projector_px) const override;
   void set_visited_target(const std::string& target_id) override;
-  void write_projection_views(const std::string& target_id,
-                              const std::array<Eigen::Vector2d, 4>& pixels_before_align,
-                              const std::array<Eigen::Vector2d, 4>& pixels_after_align,
-                              const std::optional<std::array<Eigen::Vector2d, 4>>& observed_colour_px,
-                              const std::filesystem::path& dir) const override;
+  void write_projection_views(
+      const std::string& target_id, const std::array<Eigen::Vector2d, 4>& pixels_before_align,
+      const std::array<Eigen::Vector2d, 4>& pixels_after_align,
+      const std::optional<std::array<Eigen::Vector2d, 4>>& observed_colour_px,
+      const std::filesystem::path& dir) const override;
 
  private:
   struct Impl;
