@@ -29,7 +29,7 @@ states:
           failed: skip_target
       aim:
         behaviour: aim
-        retries: 1          # one re-aim after a poor or missing fit
+        retries: 2          # re-aims after a poor or missing fit, or with the aligned pose
         on:
           succeeded: capture
           out_of_reach: skip_target
@@ -44,16 +44,44 @@ states:
       align:
         behaviour: align
         on:
-          succeeded: project
+          succeeded: calibrate
           poor_fit: [capture, aim, skip_target]
           no_target: [aim, skip_target]
           failed: skip_target
+      calibrate:            # structured light: the camera-projector calibration, measured here
+        behaviour: calibrate
+        retries: 2
+        on:
+          succeeded: verify
+          off_screen: [aim, skip_target]          # re-aim with the aligned pose
+          too_few_points: [capture, verify]       # else verify with the calibration believed so far
+          poor_fit: [capture, verify]
+          no_frame: [calibrate, verify]
+          failed: skip_target
+      verify:               # the colour camera: where the corners land, and the beam is clear
+        behaviour: verify
+        retries: 3
+        on:
+          verified: project
+          out_of_tolerance: [calibrate, skip_target]
+          not_seen: [capture, skip_target]
+          occluded: [wait, skip_target]
+          off_screen: [aim, skip_target]
+          no_frame: [verify, skip_target]
+          failed: skip_target
+      wait:                 # for the beam to clear
+        behaviour: wait
+        retries: 2
+        params: {duration_s: 5}
+        on:
+          succeeded: verify
+          failed: skip_target
       project:
         behaviour: project
-        projected_on: succeeded   # the visit counts as shown once project succeeds
+        projected_on: succeeded   # only reached through verify's gate
         on:
           succeeded: next
-          off_screen: skip_target
+          off_screen: [aim, skip_target]
           failed: skip_target
       next:
         behaviour: next

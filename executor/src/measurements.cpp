@@ -58,12 +58,21 @@ void measure_project(const Context& ctx, const ProjectResult& result, GroundTrut
   };
   evaluate(before, &BeforeAfter::before_align);
   evaluate(after, &BeforeAfter::after_align);
+  if (after) {
+    if (const auto error = truth->evaluate_projection(ctx.target->id, *after)) {
+      out.projection_error_area_mm = AreaError{error->area_error_mean_mm, error->area_error_max_mm};
+      out.light_off_target_fraction = error->light_off_target_fraction;
+    }
+  }
   if (mm.before_align || mm.after_align) {
     out.projection_error_mm = mm;
     out.projection_error_px = px;
   }
   if (before && after && !ctx.target_dir.empty()) {
-    truth->write_projection_views(ctx.target->id, *before, *after, std::nullopt, ctx.target_dir);
+    const VerifyResult* verified = ctx.blackboard().find(keys::kVerify);
+    truth->write_projection_views(ctx.target->id, *before, *after,
+                                  verified ? verified->observed_colour_px : std::nullopt,
+                                  ctx.target_dir);
   }
 }
 
@@ -87,6 +96,13 @@ void measure_step_results(const Context& ctx, std::uint64_t since_writes,
     }
     if (const auto* r = written_since(bb, keys::kAlign, since_writes)) {
       measure_align(ctx, *r, truth, measurements);
+    }
+    if (const auto* r = written_since(bb, keys::kCalibrate, since_writes)) {
+      measurements.calibration = *r;
+    }
+    if (const auto* r = written_since(bb, keys::kVerify, since_writes)) {
+      measurements.observed_error_mm = r->observed_error_mm;
+      measurements.observed_light_on_target = r->light_on_target_fraction;
     }
     if (const auto* r = written_since(bb, keys::kProject, since_writes)) {
       measure_project(ctx, *r, truth, measurements);

@@ -97,8 +97,9 @@ Checkpoint read_checkpoint(const std::filesystem::path& file, const MissionSpec&
 }
 
 void print_target_table(const RunSummary& summary, std::ostream& out) {
-  const std::vector<std::string> header = {
-      "target", "outcome", "loc err m", "align ms", "proj mm before", "proj mm after", "reason"};
+  const std::vector<std::string> header = {"target",      "outcome",        "loc err m",
+                                           "align ms",    "proj mm before", "proj mm after",
+                                           "observed mm", "reason"};
   std::vector<std::vector<std::string>> rows;
   for (const auto& r : in_mission_order(summary.targets)) {
     const TargetMeasurements& m = r.measurements;
@@ -110,7 +111,7 @@ void print_target_table(const RunSummary& summary, std::ostream& out) {
       after_mm = m.projection_error_mm->after_align;
     }
     rows.push_back({r.id, r.outcome, cell(loc_m, 3), cell(align_ms, 1), cell(before_mm, 1),
-                    cell(after_mm, 1), r.reason});
+                    cell(after_mm, 1), cell(m.observed_error_mm, 1), r.reason});
   }
   std::vector<std::size_t> width(header.size());
   for (std::size_t c = 0; c < header.size(); ++c) {

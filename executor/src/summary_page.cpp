@@ -171,7 +171,11 @@ const std::set<std::string> kKnownTargetFields = {"id",
                                                   "localization_error",
                                                   "target_pose_error",
                                                   "projection_error_mm",
-                                                  "projection_error_px"};
+                                                  "projection_error_px",
+                                                  "observed_error_mm",
+                                                  "observed_light_on_target",
+                                                  "projection_error_area_mm",
+                                                  "light_off_target_fraction"};
 
 void target_figures(std::ostringstream& h, const Json& t) {
   std::vector<std::pair<std::string, std::string>> rows;  // label, HTML
@@ -212,6 +216,24 @@ void target_figures(std::ostringstream& h, const Json& t) {
                         joined({with_unit(mm, 1, " mm"), with_unit(px, 1, " px")}));
     }
   }
+  if (auto observed = number(t, {"observed_error_mm"})) {
+    rows.emplace_back("observed error (colour camera)",
+                      joined({with_unit(observed, 1, " mm"),
+                              with_unit(number(t, {"projection_error_mm", "after_align"}), 1,
+                                        " mm true (referee)")}));
+  }
+  if (auto light = number(t, {"observed_light_on_target"})) {
+    rows.emplace_back("light on the target (observed)", fixed(100.0 * *light, 1) + " %");
+  }
+  if (at_path(t, {"projection_error_area_mm"}) != nullptr) {
+    rows.emplace_back(
+        "projection error over the content area",
+        joined({with_unit(number(t, {"projection_error_area_mm", "mean"}), 1, " mm mean"),
+                with_unit(number(t, {"projection_error_area_mm", "max"}), 1, " mm worst")}));
+  }
+  if (auto off = number(t, {"light_off_target_fraction"})) {
+    rows.emplace_back("light off the target (referee)", fixed(100.0 * *off, 1) + " %");
+  }
   std::vector<std::pair<std::string, std::string>> other;
   if (t.is_object()) {
     for (auto it = t.begin(); it != t.end(); ++it) {
@@ -233,6 +255,8 @@ void target_pictures(std::ostringstream& h, const std::string& id,
   static const std::pair<const char*, const char*> kPictures[] = {
       {"alignment.png", "alignment: the model on the captured frame"},
       {"projector.png", "projector frame (warped content)"},
+      {"camera_view.png",
+       "colour camera: the Model Points expected (green) and the dots observed (red)"},
       {"before.png", "where the content lands without alignment"},
       {"after.png", "where the content lands with alignment"}};
   std::ostringstream figs;
@@ -249,7 +273,7 @@ void target_pictures(std::ostringstream& h, const std::string& id,
 void overview_table(std::ostringstream& h, const Json& targets) {
   h << "<table class=\"overview\">\n<tr><th>target</th><th>outcome</th><th>localization error "
        "m</th><th>align ms</th><th>projection error before mm</th><th>projection error after "
-       "mm</th><th>reason</th></tr>\n";
+       "mm</th><th>observed error mm</th><th>reason</th></tr>\n";
   for (const Json& t : targets) {
     const std::string id = text(t, {"id"});
     h << "<tr><td><a href=\"#" << anchor(id) << "\">" << html_escape(id) << "</a></td><td>"
@@ -258,6 +282,7 @@ void overview_table(std::ostringstream& h, const Json& targets) {
       << fixed_or_dash(number(t, {"align", "time_ms"}), 1) << "</td><td>"
       << fixed_or_dash(number(t, {"projection_error_mm", "before_align"}), 1) << "</td><td>"
       << fixed_or_dash(number(t, {"projection_error_mm", "after_align"}), 1) << "</td><td>"
+      << fixed_or_dash(number(t, {"observed_error_mm"}), 1) << "</td><td>"
       << html_escape(text(t, {"reason"})) << "</td></tr>\n";
   }
   h << "</table>\n";
@@ -283,7 +308,7 @@ body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;margin:0 a
 h1{margin:8px 0 4px}h2{border-bottom:1px solid #ccc;padding-bottom:4px;margin-top:32px}
 table{border-collapse:collapse;margin:8px 0}th,td{padding:4px 10px;text-align:left;border-bottom:1px solid #e2e2e2}
 table.summary th,table.figures th{color:#555;font-weight:600;white-space:nowrap}
-table.overview th{background:#eee}table.overview td:nth-child(n+3):nth-child(-n+6){text-align:right;font-variant-numeric:tabular-nums}
+table.overview th{background:#eee}table.overview td:nth-child(n+3):nth-child(-n+7){text-align:right;font-variant-numeric:tabular-nums}
 .badge{display:inline-block;padding:1px 8px;border-radius:9px;color:#fff;font-weight:600;font-size:90%}
 .tour img{max-width:100%;border:1px solid #bbb}
 .pictures{display:flex;flex-wrap:wrap;gap:12px}

@@ -83,6 +83,47 @@ void from_json(const Json& j, BeforeAfter& e) {
   read_optional_number(j, "after_align", e.after_align);
 }
 
+void to_json(Json& j, const AreaError& e) {
+  j = Json::object();
+  j["mean"] = e.mean;
+  j["max"] = e.max;
+}
+
+void from_json(const Json& j, AreaError& e) {
+  expect_object(j, "the value");
+  reject_unknown(j, {"mean", "max"});
+  e.mean = number_at(j, "mean");
+  e.max = number_at(j, "max");
+}
+
+// time_ms is the wall clock's (decode and fit), like align's.
+void to_json(Json& j, const CalibrateResult& c) {
+  j = Json::object();
+  j["adopted"] = c.adopted;
+  j["decoded_blocks"] = c.decoded_blocks;
+  j["inliers"] = c.inliers;
+  j["rms_px"] = c.rms_px;
+  j["change_mm"] = c.change_mm;
+  j["change_deg"] = c.change_deg;
+  j["sequence_s"] = c.sequence_s;
+  j["time_ms"] = c.compute_ms;
+}
+
+void from_json(const Json& j, CalibrateResult& c) {
+  expect_object(j, "the value");
+  reject_unknown(j, {"adopted", "decoded_blocks", "inliers", "rms_px", "change_mm", "change_deg",
+                     "sequence_s", "time_ms"});
+  if (!j.at("adopted").is_boolean()) throw std::runtime_error("adopted: expected true or false");
+  c.adopted = j.at("adopted").get<bool>();
+  c.decoded_blocks = int_at(j, "decoded_blocks");
+  c.inliers = int_at(j, "inliers");
+  c.rms_px = number_at(j, "rms_px");
+  c.change_mm = number_at(j, "change_mm");
+  c.change_deg = number_at(j, "change_deg");
+  c.sequence_s = number_at(j, "sequence_s");
+  c.compute_ms = number_at(j, "time_ms");
+}
+
 void to_json(Json& j, const TargetRecord& r) {
   j = Json::object();
   j["id"] = r.id;
@@ -96,13 +137,19 @@ void to_json(Json& j, const TargetRecord& r) {
   if (m.target_pose_error) j["target_pose_error"] = *m.target_pose_error;
   if (m.projection_error_mm) j["projection_error_mm"] = *m.projection_error_mm;
   if (m.projection_error_px) j["projection_error_px"] = *m.projection_error_px;
+  if (m.observed_error_mm) j["observed_error_mm"] = *m.observed_error_mm;
+  if (m.observed_light_on_target) j["observed_light_on_target"] = *m.observed_light_on_target;
+  if (m.projection_error_area_mm) j["projection_error_area_mm"] = *m.projection_error_area_mm;
+  if (m.light_off_target_fraction) j["light_off_target_fraction"] = *m.light_off_target_fraction;
+  if (m.calibration) j["calibration"] = *m.calibration;
 }
 
 void from_json(const Json& j, TargetRecord& r) {
   expect_object(j, "a target record");
-  reject_unknown(
-      j, {"id", "outcome", "reason", "retries", "projected_s", "align", "localization_error",
-          "target_pose_error", "projection_error_mm", "projection_error_px"});
+  reject_unknown(j, {"id", "outcome", "reason", "retries", "projected_s", "align",
+                     "localization_error", "target_pose_error", "projection_error_mm",
+                     "projection_error_px", "observed_error_mm", "observed_light_on_target",
+                     "projection_error_area_mm", "light_off_target_fraction", "calibration"});
   r.id = string_at(j, "id");
   r.outcome = string_at(j, "outcome");
   r.reason = j.contains("reason") ? string_at(j, "reason") : std::string();
@@ -114,6 +161,11 @@ void from_json(const Json& j, TargetRecord& r) {
   read_optional(j, "target_pose_error", m.target_pose_error);
   read_optional(j, "projection_error_mm", m.projection_error_mm);
   read_optional(j, "projection_error_px", m.projection_error_px);
+  read_optional_number(j, "observed_error_mm", m.observed_error_mm);
+  read_optional_number(j, "observed_light_on_target", m.observed_light_on_target);
+  read_optional(j, "projection_error_area_mm", m.projection_error_area_mm);
+  read_optional_number(j, "light_off_target_fraction", m.light_off_target_fraction);
+  read_optional(j, "calibration", m.calibration);
   r.measurements = std::move(m);
 }
 

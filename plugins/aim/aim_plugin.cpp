@@ -2,6 +2,8 @@
 // area. The aim point is the centroid of the four Model Points in the map (the centre of the
 // content), or the model origin with `aim_at: origin`. The projector stays blank while the head
 // moves; the step succeeds once the driver reports the angles reached and `settle_s` has passed.
+// Aiming again after align (re-aim: the aligned pose put a Model Point off the projector image)
+// aims at the aligned pose rather than the map's, and through the calibration believed now.
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -24,9 +26,7 @@ std::string fmt_angles(const JointAngles& q) {
 class Aim : public Behaviour {
  public:
   Aim(const Params& params, const RunContext& run)
-      : settle_s_(params.number("settle_s")),
-        aim_at_origin_(params.string("aim_at") == "origin"),
-        kinematics_(run.mission != nullptr ? run.mission->robot : RobotSpec{}) {
+      : settle_s_(params.number("settle_s")), aim_at_origin_(params.string("aim_at") == "origin") {
     if (run.mission == nullptr) throw std::invalid_argument("aim needs the mission's robot");
   }
 
@@ -47,16 +47,24 @@ class Aim : public Behaviour {
       early_ = Outcome{kOutcomeFailed, "target " + target.id + ": no pan-tilt driver"};
       return;
     }
-    Eigen::Vector3d p_map = target.T_map_model.translation();
+    Eigen::Vector3d p_model = Eigen::Vector3d::Zero();
     if (!aim_at_origin_) {
-      Eigen::Vector3d centroid_model = Eigen::Vector3d::Zero();
-      for (const auto& p : target.model_points) centroid_model += p / 4.0;
-      p_map = target.T_map_model * centroid_model;
+      for (const auto& p : target.model_points) p_model += p / 4.0;
     }
-    const Eigen::Isometry3d T_map_base = isometry_from_pose2d(estimate->mean);
-    const Eigen::Vector3d p_base = T_map_base.inverse() * p_map;
+    const HeadKinematics kinematics =
+        believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration));
+    Eigen::Vector3d p_base;
+    const AlignResult* aligned = ctx.blackboard().find(keys::kAlign);
+    if (aligned != nullptr && aligned->T_camera_model) {
+      // The base has not moved since the capture align fitted (navigate ends the visit's motion).
+      p_base = kinematics.T_base_camera(aligned->joints) * (*aligned->T_camera_model * p_model);
+      ctx.log().debug("aim " + target.id + ": re-aiming at the aligned pose");
+    } else {
+      const Eigen::Isometry3d T_map_base = isometry_from_pose2d(estimate->mean);
+      p_base = T_map_base.inverse() * (target.T_map_model * p_model);
+    }
     std::string why;
-    const auto q = kinematics_.aim_projector_at(p_base, &why);
+    const auto q = kinematics.aim_projector_at(p_base, &why);
     if (!q) {
       std::ostringstream s;
       s.precision(2);
@@ -114,7 +122,6 @@ class Aim : public Behaviour {
 
   double settle_s_;
   bool aim_at_origin_;
-  HeadKinematics kinematics_;
   JointAngles goal_;
   std::optional<Outcome> early_;
   std::optional<double> reached_at_s_;  // state time the head was first seen at its goal
@@ -135,7 +142,8 @@ const projtour_param_desc kParams[] = {
     {"aim_at", "string", "model_points",
      "model_points (centroid of the four Model Points) or origin (the model frame's origin)"}};
 const char* const kOutcomes[] = {"succeeded", "out_of_reach"};
-const projtour_key_desc kKeys[] = {reads(keys::kLocalization)};
+const projtour_key_desc kKeys[] = {reads(keys::kLocalization), reads_if_present(keys::kAlign),
+                                   reads_if_present(keys::kCalibration)};
 const projtour_kind_desc kKinds[] = {
     with_keys(behaviour_kind<Aim>("aim",
                                   "pan-tilt inverse kinematics: projector optical axis onto the "

@@ -43,7 +43,6 @@ class Project : public Behaviour {
         track_(read_track_settings(params)),
         tracker_(track_) {
     if (run.mission == nullptr) throw std::invalid_argument("project needs the mission's robot");
-    kinematics_ = std::make_unique<HeadKinematics>(run.mission->robot);
     // The undistortion maps depend only on the projector: computed once for the whole tour.
     warper_ = std::make_unique<ContentWarper>(run.mission->robot.projector.intrinsics);
   }
@@ -55,6 +54,9 @@ class Project : public Behaviour {
     content_.reset();
     tracking_ = false;
     if (ctx.target == nullptr) throw std::runtime_error("project runs only inside a visit");
+    // The calibration believed now: calibrate may have measured it on this very target.
+    kinematics_ = std::make_unique<HeadKinematics>(
+        believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration)));
     early_ = prepare(ctx);
     if (early_) return;
     if (track_.enabled) start_tracking(ctx);
@@ -338,7 +340,8 @@ const projtour_param_desc kParams[] = {
      "warn when the Model Points lie farther than this from a common plane"},
     {"min_area_px2", "number", "100", "smaller projected quadrilaterals count as zero area"}};
 const char* const kOutcomes[] = {"succeeded", "off_screen"};
-const projtour_key_desc kKeys[] = {reads(keys::kAlign), writes(keys::kProject)};
+const projtour_key_desc kKeys[] = {reads(keys::kAlign), reads_if_present(keys::kCalibration),
+                                   writes(keys::kProject)};
 const projtour_kind_desc kKinds[] = {with_keys(
     behaviour_kind<Project>("project",
                             "warp the content onto the Model Points and show it for the dwell "

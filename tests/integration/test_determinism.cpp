@@ -6,7 +6,7 @@ namespace projtour::integration {
 namespace {
 
 // A report or checkpoint without what the wall clock measures: timing.wall_s and every
-// align.time_ms (the target records of both).
+// align.time_ms and calibration.time_ms (the target records of both).
 Json without_wall_clock(const Json& json, const std::string& key = "") {
   if (json.is_array()) {
     Json out = Json::array();
@@ -17,7 +17,10 @@ Json without_wall_clock(const Json& json, const std::string& key = "") {
   Json out = Json::object();
   for (const auto& item : json.items()) {
     const std::string& k = item.key();
-    if ((key == "timing" && k == "wall_s") || (key == "align" && k == "time_ms")) continue;
+    if ((key == "timing" && k == "wall_s") ||
+        ((key == "align" || key == "calibration") && k == "time_ms")) {
+      continue;
+    }
     out[k] = without_wall_clock(item.value(), k);
   }
   return out;

@@ -92,6 +92,22 @@ Eigen::Isometry3d HeadKinematics::T_projector_camera(const JointAngles& q) const
   return T_base_projector(q).inverse() * T_base_camera(q);
 }
 
+MountSpec HeadKinematics::projector_mount_for(const JointAngles& q,
+                                              const Eigen::Isometry3d& T_projector_camera) const {
+  MountSpec mount = projector_mount_;
+  const Eigen::Isometry3d T_base_link = mount.link == Link::pan ? T_base_pan(q) : T_base_tilt(q);
+  const Eigen::Isometry3d T_base_projector = T_base_camera(q) * T_projector_camera.inverse();
+  mount.T_link_body = T_base_link.inverse() * T_base_projector * T_body_optical().inverse();
+  return mount;
+}
+
+HeadKinematics believed_kinematics(const RobotSpec& robot,
+                                   const ProjectorCalibration* calibration) {
+  return HeadKinematics(
+      robot.pan_tilt, robot.camera.mount,
+      calibration != nullptr ? calibration->projector_mount : robot.projector.mount);
+}
+
 bool HeadKinematics::within_limits(const JointAngles& q) const {
   constexpr double eps_rad = 1e-9;
   return q.pan_rad >= deg_to_rad(pan_tilt_.pan_min_deg) - eps_rad &&

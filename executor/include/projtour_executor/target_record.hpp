@@ -32,6 +32,12 @@ struct BeforeAfter {
   std::optional<double> after_align;
 };
 
+// The referee's error over the whole content area (a grid of content points), after alignment.
+struct AreaError {
+  double mean = 0.0;
+  double max = 0.0;
+};
+
 // Absent fields were not measured (the *_error ones need the simulator's ground truth).
 struct TargetMeasurements {
   std::optional<double> projected_s;
@@ -40,6 +46,13 @@ struct TargetMeasurements {
   std::optional<TargetPoseError> target_pose_error;
   std::optional<BeforeAfter> projection_error_mm;
   std::optional<BeforeAfter> projection_error_px;
+  // The closed loop: the last structured-light calibration of the visit, what the colour camera
+  // observed (verify), and the referee's figures over the content area and its light.
+  std::optional<CalibrateResult> calibration;
+  std::optional<double> observed_error_mm;
+  std::optional<double> observed_light_on_target;
+  std::optional<AreaError> projection_error_area_mm;
+  std::optional<double> light_off_target_fraction;
 };
 
 struct TargetRecord {
@@ -61,6 +74,10 @@ void to_json(Json& j, const TargetPoseError& e);
 void from_json(const Json& j, TargetPoseError& e);
 void to_json(Json& j, const BeforeAfter& e);
 void from_json(const Json& j, BeforeAfter& e);
+void to_json(Json& j, const AreaError& e);
+void from_json(const Json& j, AreaError& e);
+void to_json(Json& j, const CalibrateResult& c);
+void from_json(const Json& j, CalibrateResult& c);
 // Fields in DESIGN.md's order; `index` is left as it was.
 void to_json(Json& j, const TargetRecord& r);
 void from_json(const Json& j, TargetRecord& r);

@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 
+#include "projtour/blackboard_keys.hpp"
 #include "projtour/drivers.hpp"
 #include "projtour/robot.hpp"
 
@@ -43,10 +44,19 @@ class HeadKinematics {
 
   bool within_limits(const JointAngles& q) const;
 
+  // The projector mount that makes T_projector_camera(q) equal the given (measured) transform,
+  // on the robot file's link: what the calibrate step adopts and writes for a person to keep.
+  MountSpec projector_mount_for(const JointAngles& q,
+                                const Eigen::Isometry3d& T_projector_camera) const;
+
  private:
   PanTiltSpec pan_tilt_;
   MountSpec camera_mount_;
   MountSpec projector_mount_;
 };
+
+// The head as the robot believes it now: the robot file's, with the projector mount the calibrate
+// step measured when there is one (the blackboard's keys::kCalibration).
+HeadKinematics believed_kinematics(const RobotSpec& robot, const ProjectorCalibration* calibration);
 
 }  // namespace projtour

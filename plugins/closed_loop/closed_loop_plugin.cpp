@@ -1,0 +1,95 @@
+// The closed-loop plugin's descriptor: calibrate, verify, and wait (for a beam to clear).
+#include <sstream>
+
+#include "calibrate.hpp"
+#include "projtour/plugin_author.hpp"
+#include "verify.hpp"
+
+namespace projtour::closed_loop {
+namespace {
+
+// wait: the projector blank and the head still for duration_s of state time (pauses excluded),
+// then succeeded. The default machine waits here for a person to step out of an occluded beam.
+class Wait : public Behaviour {
+ public:
+  Wait(const Params& params, const RunContext&) : duration_s_(params.number("duration_s")) {}
+  void start(Context& ctx) override {
+    started_s_ = ctx.state_elapsed_s();
+    if (ctx.drivers().projector) ctx.drivers().projector->blank();
+  }
+  std::optional<Outcome> tick(Context& ctx) override {
+    if (ctx.cancel_requested()) return Outcome{kOutcomeCancelled, "cancelled while waiting"};
+    if (ctx.state_elapsed_s() - started_s_ < duration_s_) return std::nullopt;
+    std::ostringstream s;
+    s.precision(1);
+    s << std::fixed << "waited " << duration_s_ << " s";
+    return Outcome{"succeeded", s.str()};
+  }
+
+ private:
+  double duration_s_;
+  double started_s_ = 0.0;
+};
+
+void check_wait_params(const Params& params) {
+  if (!(params.number("duration_s") >= 0)) throw std::invalid_argument("duration_s: must be >= 0");
+}
+
+const projtour_param_desc kCalibrateParams[] = {
+    {"edge_margin_px", "number", "8",
+     "a Model Point this close to the projector image's edge means off_screen (re-aim)"},
+    {"mask_margin_px", "integer", "48",
+     "the structured light covers the model's projector pixels grown by this much"},
+    {"roi_margin_px", "integer", "24", "colour pixels decoded: the model's, grown by this much"},
+    {"frame_timeout_s", "number", "1.0", "no colour frame this long after a show: no_frame"},
+    {"max_change_mm", "number", "60",
+     "a fit moving the content further than this on the target is refused (poor_fit)"},
+    {"max_change_deg", "number", "5", "... or turning the projector more than this"}};
+const char* const kCalibrateOutcomes[] = {"succeeded", "off_screen", "too_few_points", "poor_fit",
+                                          "no_frame"};
+const projtour_key_desc kCalibrateKeys[] = {reads(keys::kAlign), reads(keys::kCapture),
+                                            reads_if_present(keys::kCalibration),
+                                            writes(keys::kCalibration), writes(keys::kCalibrate)};
+
+const projtour_param_desc kVerifyParams[] = {
+    {"edge_margin_px", "number", "8",
+     "a Model Point this close to the projector image's edge means off_screen (re-aim)"},
+    {"dot_radius_px", "integer", "10", "radius of the dot shown on each Model Point's pixel"},
+    {"search_px", "number", "40", "each dot is looked for this far around its expected pixel"},
+    {"min_on_target", "number", "0.95",
+     "share of the content area's light that must land on the target"},
+    {"tolerance_mm", "number", "-1",
+     "largest observed error (mean over the corners) that passes; negative = the target's "
+     "tolerance_mm"},
+    {"frame_timeout_s", "number", "1.0", "no colour frame this long after a show: no_frame"}};
+const char* const kVerifyOutcomes[] = {"verified", "out_of_tolerance", "occluded",
+                                       "not_seen", "off_screen",       "no_frame"};
+const projtour_key_desc kVerifyKeys[] = {reads(keys::kAlign), reads(keys::kCapture),
+                                         reads_if_present(keys::kCalibration),
+                                         writes(keys::kVerify)};
+
+const projtour_param_desc kWaitParams[] = {
+    {"duration_s", "number", "5", "seconds to wait, projector blank"}};
+const char* const kWaitOutcomes[] = {"succeeded"};
+
+const projtour_kind_desc kKinds[] = {
+    with_keys(behaviour_kind<Calibrate>(
+                  "calibrate",
+                  "Gray-code structured light on the target: measures the camera-projector "
+                  "calibration with the colour camera and adopts a good fit",
+                  kCalibrateParams, kCalibrateOutcomes, validator<check_calibrate_params>()),
+              kCalibrateKeys),
+    with_keys(
+        behaviour_kind<Verify>("verify",
+                               "the colour camera checks where the content's corners land "
+                               "and that its light lands on the target",
+                               kVerifyParams, kVerifyOutcomes, validator<check_verify_params>()),
+        kVerifyKeys),
+    behaviour_kind<Wait>("wait", "projector blank, head still, for a while", kWaitParams,
+                         kWaitOutcomes, validator<check_wait_params>()),
+};
+
+}  // namespace
+}  // namespace projtour::closed_loop
+
+PROJTOUR_PLUGIN("closed_loop", "1.0.0", projtour::closed_loop::kKinds)

@@ -1,0 +1,78 @@
+#include "lit_capture.hpp"
+
+namespace projtour::closed_loop {
+
+void LitCapture::start(Context& ctx, int count, FrameSource source, double hold_s,
+                       double exposure_ms) {
+  source_ = std::move(source);
+  count_ = count;
+  hold_s_ = hold_s;
+  exposure_ms_ = exposure_ms;
+  frames_.clear();
+  active_ = true;
+  ctx.drivers().colour_camera->set_exposure_ms(exposure_ms_);
+  // Frames exposed before the first show must not count: drop what is queued.
+  while (ctx.drivers().colour_camera->grab()) {
+  }
+  show_next(ctx);
+  first_shown_s_ = shown_at_s_;
+}
+
+void LitCapture::show_next(Context& ctx) {
+  ctx.drivers().projector->show(source_(static_cast<int>(frames_.size())));
+  shown_at_s_ = ctx.now_s();
+  shown_at_state_s_ = ctx.state_elapsed_s();
+}
+
+bool LitCapture::tick(Context& ctx) {
+  if (!active_) return false;
+  while (auto frame = ctx.drivers().colour_camera->grab()) {
+    // A frame exposed (even partly) before the pattern had settled shows the previous one.
+    if (frame->t_s + 1e-6 < shown_at_s_ + hold_s_) continue;
+    last_frame_s_ = frame->t_s;
+    frames_.push_back(std::move(*frame));
+    if (static_cast<int>(frames_.size()) == count_) {
+      active_ = false;
+      return true;
+    }
+    show_next(ctx);
+    // The next pattern has just gone up: anything still queued predates it.
+    while (ctx.drivers().colour_camera->grab()) {
+    }
+    break;
+  }
+  return false;
+}
+
+bool LitCapture::stalled(const Context& ctx, double limit_s) const {
+  return active_ && ctx.state_elapsed_s() - shown_at_state_s_ > limit_s;
+}
+
+void LitCapture::pause(Context& ctx) {
+  if (!active_) return;
+  ctx.drivers().projector->blank();
+}
+
+void LitCapture::resume(Context& ctx) {
+  if (!active_) return;
+  frames_.clear();
+  while (ctx.drivers().colour_camera->grab()) {
+  }
+  show_next(ctx);
+  first_shown_s_ = shown_at_s_;
+}
+
+void LitCapture::finish(Context& ctx) {
+  active_ = false;
+  if (ctx.drivers().projector) ctx.drivers().projector->blank();
+  if (ctx.drivers().colour_camera) {
+    try {
+      ctx.drivers().colour_camera->set_exposure_ms(0.0);
+    } catch (const std::exception& e) {
+      ctx.log().warning(std::string("colour camera: cannot restore automatic exposure: ") +
+                        e.what());
+    }
+  }
+}
+
+}  // namespace projtour::closed_loop

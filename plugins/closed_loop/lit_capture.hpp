@@ -1,0 +1,53 @@
+#pragma once
+// Shows projector frames one at a time and takes, for each, the first colour frame exposed after
+// it had been lit for `hold_s` (the camera's time stamps, not the tick, decide). Calibrate's
+// Gray-code sequence and verify's three frames both go through it.
+#include <functional>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "projtour/colour_frame.hpp"
+#include "projtour/context.hpp"
+
+namespace projtour::closed_loop {
+
+class LitCapture {
+ public:
+  using FrameSource = std::function<cv::Mat(int)>;
+
+  // Frames 0..count-1 from `source`; the colour camera's exposure is fixed at exposure_ms for
+  // the sequence (dark and lit frames are compared pixel by pixel).
+  void start(Context& ctx, int count, FrameSource source, double hold_s, double exposure_ms);
+  // True once every frame has its colour frame. Throws DriverError from the devices.
+  bool tick(Context& ctx);
+  // No usable colour frame came for `limit_s` of state time after a show.
+  bool stalled(const Context& ctx, double limit_s) const;
+  // A pause blanks the projector and forgets what was taken: the sequence starts again on
+  // resume, since the scene may have changed meanwhile.
+  void pause(Context& ctx);
+  void resume(Context& ctx);
+  // Blanks the projector and gives the camera its automatic exposure back.
+  void finish(Context& ctx);
+
+  const std::vector<ColourFrame>& frames() const { return frames_; }
+  // Mission time from the first show to the last frame taken.
+  double duration_s() const { return last_frame_s_ - first_shown_s_; }
+
+ private:
+  void show_next(Context& ctx);
+
+  FrameSource source_;
+  int count_ = 0;
+  double hold_s_ = 0.0;
+  double exposure_ms_ = 0.0;
+  std::vector<ColourFrame> frames_;
+  double shown_at_s_ = 0.0;        // mission time of the current show
+  double shown_at_state_s_ = 0.0;  // ... and its state time (for stalled())
+  double first_shown_s_ = 0.0;
+  double last_frame_s_ = 0.0;
+  bool active_ = false;
+};
+
+}  // namespace projtour::closed_loop

@@ -1,0 +1,227 @@
+// verify: the colour camera's check of where the content will land, through the very warp
+// project shows it with. Three frames: dark, a dot on each Model Point's pixel, and the content
+// area lit white. The dots are found in the colour image, lifted to 3-D with the registered
+// depth and compared with the Model Points at the aligned pose (observed_error_mm); the lit area
+// shows whether the light lands on the target or on something in front of it.
+#include "verify.hpp"
+
+#include <cmath>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+#include "projtour/light_check.hpp"
+#include "projtour/registered_depth.hpp"
+
+namespace projtour::closed_loop {
+
+struct VerifySettings {
+  double edge_margin_px = 8.0;
+  int dot_radius_px = 10;
+  double search_px = 40.0;
+  double min_on_target = 0.95;
+  double tolerance_mm = -1.0;  // negative: the target's tolerance_mm
+  double frame_timeout_s = 1.0;
+};
+
+static VerifySettings read_verify_settings(const Params& p) {
+  VerifySettings s;
+  s.edge_margin_px = p.number("edge_margin_px");
+  s.dot_radius_px = static_cast<int>(p.integer("dot_radius_px"));
+  s.search_px = p.number("search_px");
+  s.min_on_target = p.number("min_on_target");
+  s.tolerance_mm = p.number("tolerance_mm");
+  s.frame_timeout_s = p.number("frame_timeout_s");
+  if (s.edge_margin_px < 0) throw std::invalid_argument("edge_margin_px: must be >= 0");
+  if (s.dot_radius_px < 1 || s.dot_radius_px > 100) {
+    throw std::invalid_argument("dot_radius_px: must lie in [1, 100]");
+  }
+  if (!(s.search_px > 0)) throw std::invalid_argument("search_px: must be > 0");
+  if (!(s.min_on_target >= 0.0 && s.min_on_target <= 1.0)) {
+    throw std::invalid_argument("min_on_target: must lie in [0, 1]");
+  }
+  if (s.tolerance_mm == 0.0) throw std::invalid_argument("tolerance_mm: must not be 0");
+  if (!(s.frame_timeout_s > 0)) throw std::invalid_argument("frame_timeout_s: must be > 0");
+  return s;
+}
+
+void check_verify_params(const Params& params) {
+  read_verify_settings(params);
+}
+
+namespace {
+
+std::string fixed(double v, int digits) {
+  std::ostringstream s;
+  s.precision(digits);
+  s << std::fixed << v;
+  return s.str();
+}
+
+cv::Mat as_mat(const ColourFrame& f) {
+  return cv::Mat(f.height, f.width, CV_8UC3, const_cast<std::uint8_t*>(f.bgr.data())).clone();
+}
+
+}  // namespace
+
+Verify::Verify(const Params& params, const RunContext& run)
+    : settings_(std::make_unique<VerifySettings>(read_verify_settings(params))) {
+  if (run.mission == nullptr) throw std::invalid_argument("verify needs the mission's robot");
+  warper_ = std::make_unique<ContentWarper>(run.mission->robot.projector.intrinsics);
+}
+
+Verify::~Verify() = default;
+
+void Verify::start(Context& ctx) {
+  early_.reset();
+  view_.reset();
+  frames_.clear();
+  result_ = VerifyResult{};
+  result_.tolerance_mm = settings_->tolerance_mm > 0 ? settings_->tolerance_mm
+                         : ctx.target                ? ctx.target->tolerance_mm
+                                                     : 3.0;
+  auto looked = look_at_target(ctx, settings_->edge_margin_px);
+  if (looked.outcome) {
+    early_ = looked.outcome;
+    return;
+  }
+  view_ = std::move(looked.view);
+  const RobotSpec& robot = ctx.robot();
+  const PinholeModel& projector = robot.projector.intrinsics;
+  frames_.push_back(cv::Mat(projector.height, projector.width, CV_8UC3, cv::Scalar::all(0)));
+  const cv::Mat dots = light::dots_frame(projector, view_->quad.pixels, settings_->dot_radius_px);
+  frames_.push_back(dots.channels() == 3 ? dots : [&] {
+    cv::Mat bgr;
+    cv::cvtColor(dots, bgr, cv::COLOR_GRAY2BGR);
+    return bgr;
+  }());
+  const cv::Size content(256, 256);
+  warper_->set_target(content, view_->quad);
+  frames_.push_back(warper_->warp(cv::Mat(content, CV_8UC3, cv::Scalar::all(255))));
+  capture_.start(
+      ctx, static_cast<int>(frames_.size()), [this](int i) { return frames_[i]; },
+      robot.structured_light.hold_s, robot.structured_light.exposure_ms);
+}
+
+std::optional<Outcome> Verify::tick(Context& ctx) {
+  if (early_) return early_;
+  if (ctx.cancel_requested()) {
+    capture_.finish(ctx);
+    return Outcome{kOutcomeCancelled, "cancelled while verifying"};
+  }
+  if (capture_.stalled(ctx, settings_->frame_timeout_s)) {
+    capture_.finish(ctx);
+    return Outcome{"no_frame", target_prefix(ctx) + "no colour frame within " +
+                                   fixed(settings_->frame_timeout_s, 1) +
+                                   " s of showing the verification pattern"};
+  }
+  if (!capture_.tick(ctx)) return std::nullopt;
+  capture_.finish(ctx);
+  const Outcome outcome = measure(ctx);
+  ctx.blackboard().set(keys::kVerify, result_);
+  write_view(ctx);
+  return outcome;
+}
+
+void Verify::stop(Context& ctx) {
+  capture_.finish(ctx);
+}
+void Verify::pause(Context& ctx) {
+  capture_.pause(ctx);
+}
+void Verify::resume(Context& ctx) {
+  capture_.resume(ctx);
+}
+
+Outcome Verify::measure(Context& ctx) {
+  const std::string who = target_prefix(ctx);
+  const RobotSpec& robot = ctx.robot();
+  const PinholeModel& colour = robot.camera.colour.intrinsics;
+  const std::vector<ColourFrame>& f = capture_.frames();
+  const ColourFrame& dark = f[0];
+  const ColourFrame& dots = f[1];
+  const ColourFrame& area = f[2];
+  for (int i = 0; i < 4; ++i) {
+    const auto px = colour.project(view_->model_points_camera[i]);
+    result_.expected_colour_px[i] = px ? *px : Eigen::Vector2d(-1, -1);
+  }
+  const light::RegisteredDepth depth =
+      light::register_depth(view_->capture->frame, robot.camera.depth_to_color_m, colour);
+
+  const light::LightOnTarget light = light::light_on_target(
+      dark, area, depth, light::model_depth(*view_->model, view_->T_camera_model, colour));
+  result_.light_on_target_fraction = light.on_target_fraction;
+
+  const auto found = light::find_dots(dark, dots, result_.expected_colour_px, settings_->search_px);
+  std::array<Eigen::Vector2d, 4> observed{};
+  int seen = 0;
+  double sum_mm = 0.0;
+  std::string unseen;
+  for (int i = 0; i < 4; ++i) {
+    if (!found[i]) {
+      unseen += (unseen.empty() ? "" : ", ") + std::to_string(i + 1);
+      continue;
+    }
+    observed[i] = *found[i];
+    const auto p = light::lift(depth, *found[i]);
+    if (!p) {
+      unseen += (unseen.empty() ? "" : ", ") + std::to_string(i + 1) + " (no depth)";
+      continue;
+    }
+    const double e_mm = 1e3 * (*p - view_->model_points_camera[i]).norm();
+    result_.corner_error_mm[i] = e_mm;
+    sum_mm += e_mm;
+    ++seen;
+  }
+  if (seen > 0) result_.observed_colour_px = observed;
+  if (seen > 0) result_.observed_error_mm = sum_mm / seen;
+
+  const std::string light_text = fixed(100.0 * light.on_target_fraction, 1) +
+                                 " % of the light on the target, " +
+                                 fixed(100.0 * light.in_front_fraction, 1) + " % in front of it";
+  if (light.on_target_fraction < settings_->min_on_target &&
+      light.in_front_fraction >= 1.0 - light.on_target_fraction - light.in_front_fraction) {
+    return Outcome{"occluded", who + "something stands in the beam: " + light_text + " (at least " +
+                                   fixed(100.0 * settings_->min_on_target, 0) + " % needed)"};
+  }
+  if (seen < 4) {
+    return Outcome{"not_seen", who + "the colour camera did not find Model Point " + unseen +
+                                   "'s dot; " + light_text};
+  }
+  const std::string error_text =
+      "observed error " + fixed(*result_.observed_error_mm, 2) + " mm (corners " +
+      fixed(*result_.corner_error_mm[0], 1) + ", " + fixed(*result_.corner_error_mm[1], 1) + ", " +
+      fixed(*result_.corner_error_mm[2], 1) + ", " + fixed(*result_.corner_error_mm[3], 1) + " mm)";
+  if (*result_.observed_error_mm > result_.tolerance_mm) {
+    return Outcome{"out_of_tolerance", who + error_text + " exceeds the tolerance of " +
+                                           fixed(result_.tolerance_mm, 1) + " mm; " + light_text};
+  }
+  if (light.on_target_fraction < settings_->min_on_target) {
+    return Outcome{"out_of_tolerance",
+                   who + "the light spills off the target: " + light_text + " (at least " +
+                       fixed(100.0 * settings_->min_on_target, 0) + " % needed); " + error_text};
+  }
+  return Outcome{"verified", who + error_text + " within " + fixed(result_.tolerance_mm, 1) +
+                                 " mm; " + light_text};
+}
+
+// The camera's own view of the check, for a person: the lit content area, the Model Points where
+// the robot expects them (green) and the dots where it saw them (red).
+void Verify::write_view(const Context& ctx) const {
+  if (ctx.target_dir.empty() || capture_.frames().size() < 3) return;
+  cv::Mat view = as_mat(capture_.frames()[2]);
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector2d& e = result_.expected_colour_px[i];
+    cv::drawMarker(view, cv::Point2d(e.x(), e.y()), cv::Scalar(0, 255, 0), cv::MARKER_CROSS, 12, 1);
+    if (result_.observed_colour_px && result_.corner_error_mm[i]) {
+      const Eigen::Vector2d& o = (*result_.observed_colour_px)[i];
+      cv::circle(view, cv::Point2d(o.x(), o.y()), 6, cv::Scalar(0, 0, 255), 1, cv::LINE_AA);
+    }
+  }
+  const std::filesystem::path file = ctx.target_dir / "camera_view.png";
+  if (!cv::imwrite(file.string(), view)) {
+    ctx.log().warning(target_prefix(ctx) + "cannot write " + file.string());
+  }
+}
+
+}  // namespace projtour::closed_loop
