@@ -15,8 +15,16 @@ namespace projtour::light {
 struct RegisteredDepth {
   PinholeModel colour;
   std::vector<float> z_m;  // colour width * height, along the colour optical axis; 0 = none
+  // The reading each pixel holds, as the 3-D point it was (camera frame; NaN where z_m is 0):
+  // lift fits these rather than pixel centres at z_m, which would add the rounding to a pixel
+  // and need the colour lens undone per reading.
+  std::vector<Eigen::Vector3f> points_camera;
   float at(int u, int v) const { return z_m[static_cast<std::size_t>(v) * colour.width + u]; }
 };
+
+// Hole filling: a colour pixel that no reading landed on takes the nearest of the readings on
+// its 8 neighbours, as a 3x3 splat behind the exact ones would. The colour lens stretches the
+// image corners by up to ~1.4x against the depth image, which leaves 1-2 pixel holes.
 
 RegisteredDepth register_depth(const DepthFrame& depth, const Eigen::Vector3d& depth_to_color_m,
                                const PinholeModel& colour);
