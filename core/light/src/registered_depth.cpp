@@ -60,6 +60,17 @@ class DepthRays {
   std::vector<Eigen::Vector2f> rays_;
 };
 
+// A neighbour this much nearer is another surface, not noise: over 10 sigma of the Kinect's
+// depth noise (1.4e-3 z^2) out to its 4 m range.
+float occlusion_gap_m(float z_m) {
+  return 0.02f + 0.05f * z_m;
+}
+// Readings behind at least this many of their 8 neighbours are a leak: at the rim of a surface a
+// background pixel has at most 3 or 4 foreground neighbours, inside a hole in it 5 or more.
+constexpr int kSurroundedBy = 5;
+// How far (in standard deviations of the points' spread) lift may extrapolate its plane.
+constexpr double kMaxSupport = 1.5;
+
 }  // namespace
 
 RegisteredDepth register_depth(const DepthFrame& depth, const Eigen::Vector3d& depth_to_color_m,
@@ -93,26 +104,32 @@ RegisteredDepth register_depth(const DepthFrame& depth, const Eigen::Vector3d& d
     }
   }
 
+  // The second pass reads the first's result only, so the order pixels are visited in does not
+  // matter: holes take the nearest neighbouring reading, and a reading well behind most of its
+  // neighbours -- the background that the depth camera sees through a hole in the foreground's
+  // coverage, where the colour camera sees the foreground -- gives way to the nearest of them.
   out.z_m = z;
   out.points_camera = points;
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const std::size_t i = static_cast<std::size_t>(v) * w + u;
-      if (z[i] != 0.0f) continue;
-      std::size_t best = n;
+      std::size_t nearest = n;
+      int in_front = 0;
       for (int dv = -1; dv <= 1; ++dv) {
         const int nv = v + dv;
         if (nv < 0 || nv >= h) continue;
         for (int du = -1; du <= 1; ++du) {
           const int nu = u + du;
-          if (nu < 0 || nu >= w) continue;
+          if (nu < 0 || nu >= w || (du == 0 && dv == 0)) continue;
           const std::size_t j = static_cast<std::size_t>(nv) * w + nu;
-          if (z[j] != 0.0f && (best == n || z[j] < z[best])) best = j;
+          if (z[j] == 0.0f) continue;
+          if (nearest == n || z[j] < z[nearest]) nearest = j;
+          in_front += z[i] != 0.0f && z[j] < z[i] - occlusion_gap_m(z[i]);
         }
       }
-      if (best == n) continue;
-      out.z_m[i] = z[best];
-      out.points_camera[i] = points[best];
+      if (nearest == n || (z[i] != 0.0f && in_front < kSurroundedBy)) continue;
+      out.z_m[i] = z[nearest];
+      out.points_camera[i] = points[nearest];
     }
   }
   return out;
@@ -144,22 +161,31 @@ std::optional<Eigen::Vector3d> lift(const RegisteredDepth& depth, const Eigen::V
   const std::size_t min_points = std::max<std::size_t>(6, window_area / 4);
   if (points.size() < min_points) return std::nullopt;
 
-  // Another surface in the window (the wall behind a sign's edge) is far from the median depth.
-  std::vector<float> zs(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) zs[i] = points[i].z();
+  // Another surface in the window (the wall behind a sign's rim) is far from the depth of the
+  // surface the pixel itself sees: the median of the readings next to it. Without any, what the
+  // pixel sees is unknown (the depth camera's shadow beside a rim).
+  std::vector<float> zs;
+  for (int v = std::max(cv - 1, 0); v <= std::min(cv + 1, k.height - 1); ++v) {
+    for (int u = std::max(cu - 1, 0); u <= std::min(cu + 1, k.width - 1); ++u) {
+      const float z = depth.z_m[static_cast<std::size_t>(v) * k.width + u];
+      if (z != 0.0f) zs.push_back(z);
+    }
+  }
+  if (zs.empty()) return std::nullopt;
   std::nth_element(zs.begin(), zs.begin() + zs.size() / 2, zs.end());
-  const float median_z = zs[zs.size() / 2];
+  const float reference_z = zs[zs.size() / 2];
   const float gate = static_cast<float>(max_spread_m);
-  points.erase(
-      std::remove_if(points.begin(), points.end(),
-                     [&](const Eigen::Vector3f& p) { return std::abs(p.z() - median_z) > gate; }),
-      points.end());
+  points.erase(std::remove_if(
+                   points.begin(), points.end(),
+                   [&](const Eigen::Vector3f& p) { return std::abs(p.z() - reference_z) > gate; }),
+               points.end());
 
   // z = a x + b y + c by least squares about the centroid (the Kinect's error is along depth);
   // a second pass without the points beyond 2.5 RMS.
   Eigen::Vector3d plane = Eigen::Vector3d::Zero();  // a, b, c
   double rms = 0.0;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
   for (int pass = 0; pass < 2; ++pass) {
     if (points.size() < min_points) return std::nullopt;
     centroid.setZero();
@@ -172,6 +198,7 @@ std::optional<Eigen::Vector3d> lift(const RegisteredDepth& depth, const Eigen::V
       A += d.head<2>() * d.head<2>().transpose();
       b += d.head<2>() * d.z();
     }
+    scatter = A / static_cast<double>(points.size());
     const Eigen::LDLT<Eigen::Matrix2d> solver(A);
     if (solver.info() != Eigen::Success || solver.rcond() < 1e-9) return std::nullopt;
     const Eigen::Vector2d slope = solver.solve(b);
@@ -197,6 +224,12 @@ std::optional<Eigen::Vector3d> lift(const RegisteredDepth& depth, const Eigen::V
   if (std::abs(denominator) < 1e-6) return std::nullopt;
   const double t = plane.z() / denominator;
   if (!(t > 0.0)) return std::nullopt;
+  // The plane holds only over its points: with them all to one side of the ray (a thin band
+  // along a rim) the slope across the band is noise, and extrapolating it lands between the
+  // surfaces. The ray must pass within kMaxSupport standard deviations of the points' spread.
+  const Eigen::Vector2d offset = t * ray.head<2>() - centroid.head<2>();
+  const Eigen::LDLT<Eigen::Matrix2d> spread(scatter);
+  if (offset.dot(spread.solve(offset)) > kMaxSupport * kMaxSupport) return std::nullopt;
   return Eigen::Vector3d(t * ray);
 }
 

@@ -22,9 +22,12 @@ struct RegisteredDepth {
   float at(int u, int v) const { return z_m[static_cast<std::size_t>(v) * colour.width + u]; }
 };
 
-// Hole filling: a colour pixel that no reading landed on takes the nearest of the readings on
-// its 8 neighbours, as a 3x3 splat behind the exact ones would. The colour lens stretches the
-// image corners by up to ~1.4x against the depth image, which leaves 1-2 pixel holes.
+// Each reading z-buffered into the colour pixel it projects to (colour lens applied). Then a
+// pixel that no reading landed on takes the nearest of the readings on its 8 neighbours, as a
+// 3x3 splat behind the exact ones would: the colour lens stretches the image corners by up to
+// ~1.4x against the depth image, which leaves 1-2 pixel holes. A reading far behind at least 5
+// of its neighbours gives way to the nearest of them: it is background the depth camera saw
+// through such a hole in a surface that the colour camera sees in front of it.
 
 RegisteredDepth register_depth(const DepthFrame& depth, const Eigen::Vector3d& depth_to_color_m,
                                const PinholeModel& colour);
