@@ -84,7 +84,7 @@ endfunction()
 # OpenCV_LIBS is read where it is called (after find_package), not where this file is included.
 macro(projtour_all_libraries out)
   set(${out} projtour_contract projtour_host projtour_head projtour_perception
-      projtour_navigation ${OpenCV_LIBS} mrpt::obs mrpt::poses)
+      projtour_navigation projtour_light ${OpenCV_LIBS} mrpt::obs mrpt::poses)
 endmacro()
 
 # projtour_add_test(NAME SOURCES a.cpp ... [LIBS lib ...] [LABELS l] [TIMEOUT s])

@@ -14,7 +14,7 @@ function(run_step what)
 endfunction()
 
 run_step("installing the build" ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
-set(components contract host head perception navigation)
+set(components contract host head perception navigation light)
 set(expected bin/projtour include/projtour/plugin_author.hpp include/projtour/plugin_abi.h
              include/projtour/contract_version.h
              ${LIBDIR}/libprojtour_contract.so.${CONTRACT_SOVERSION}

@@ -36,6 +36,8 @@ class GrayCodeSequence {
   int size() const;  // frames in the sequence
   int block_columns() const;
   int block_rows() const;
+  int column_bits() const;  // ceil(log2(block_columns())): frames 2 .. 2 + 2 * column_bits - 1
+  int row_bits() const;     // ceil(log2(block_rows())): the frames after the column bits
   // Frame i as the projector shows it (BGR, projector size). Outside `mask` (CV_8U, projector
   // size, nonzero = lit; empty = everywhere) the frame is black, so the light stays on the
   // target area.
@@ -43,6 +45,7 @@ class GrayCodeSequence {
   // The projector pixel at the centre of block (column, row).
   Eigen::Vector2d block_centre_px(int column, int row) const;
   const GrayCodeSettings& settings() const;
+  const PinholeModel& projector() const;
 
  private:
   struct Impl;

@@ -15,8 +15,19 @@ namespace projtour::light {
 struct RegisteredDepth {
   PinholeModel colour;
   std::vector<float> z_m;  // colour width * height, along the colour optical axis; 0 = none
+  // The reading each pixel holds, as the 3-D point it was (camera frame; NaN where z_m is 0):
+  // lift fits these rather than pixel centres at z_m, which would add the rounding to a pixel
+  // and need the colour lens undone per reading.
+  std::vector<Eigen::Vector3f> points_camera;
   float at(int u, int v) const { return z_m[static_cast<std::size_t>(v) * colour.width + u]; }
 };
+
+// Each reading z-buffered into the colour pixel it projects to (colour lens applied). Then a
+// pixel that no reading landed on takes the nearest of the readings on its 8 neighbours, as a
+// 3x3 splat behind the exact ones would: the colour lens stretches the image corners by up to
+// ~1.4x against the depth image, which leaves 1-2 pixel holes. A reading far behind at least 5
+// of its neighbours gives way to the nearest of them: it is background the depth camera saw
+// through such a hole in a surface that the colour camera sees in front of it.
 
 RegisteredDepth register_depth(const DepthFrame& depth, const Eigen::Vector3d& depth_to_color_m,
                                const PinholeModel& colour);
