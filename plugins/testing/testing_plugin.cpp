@@ -4,6 +4,7 @@
 #include <atomic>
 #include <fstream>
 #include <mutex>
+#include <sstream>
 
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/plugin_author.hpp"
@@ -25,10 +26,12 @@ class NullDevice {
  public:
   NullDevice(const char* kind, const Params& params, const RunContext& run)
       : kind_(kind), log_(params.boolean("log_safe_stops")), run_dir_(run.run_dir) {}
-  void note_safe_stop() noexcept {
+  void note_safe_stop() noexcept { note("safe_stop"); }
+  // One line "<kind> <event>" per call.
+  void note(const std::string& event) noexcept {
     if (!log_ || run_dir_.empty()) return;
     std::ofstream log(run_dir_ / "test_drivers.log", std::ios::app);
-    log << kind_ << " safe_stop\n";
+    log << kind_ << " " << event << "\n";
   }
 
  private:
@@ -109,6 +112,24 @@ class TestDepthCamera : public DepthCameraDriver {
   NullDevice device_;
 };
 
+// Never delivers a frame; notes each exposure setting, so tests can check a sequence fixed the
+// exposure and gave it back.
+class TestColourCamera : public ColourCameraDriver {
+ public:
+  TestColourCamera(const Params& params, const RunContext& run)
+      : device_("test_colour_camera", params, run) {}
+  void safe_stop() override { device_.note_safe_stop(); }
+  std::optional<ColourFrame> grab() override { return std::nullopt; }
+  void set_exposure_ms(double exposure_ms) override {
+    std::ostringstream event;
+    event << "set_exposure_ms " << exposure_ms;
+    device_.note(event.str());
+  }
+
+ private:
+  NullDevice device_;
+};
+
 class TestProjector : public ProjectorDriver {
  public:
   TestProjector(const Params& params, const RunContext& run)
@@ -158,6 +179,9 @@ const char* const kProject[] = {"succeeded", "off_screen"};
 const char* const kNext[] = {"succeeded"};
 const projtour_param_desc kNullDeviceParams[] = {
     {"log_safe_stops", "boolean", "true", "append each safe stop to run_dir/test_drivers.log"}};
+const projtour_param_desc kColourCameraParams[] = {
+    {"log_safe_stops", "boolean", "true",
+     "append each safe stop and each exposure setting to run_dir/test_drivers.log"}};
 const projtour_param_desc kLocalizationParams[] = {
     {"publish_converged", "boolean", "true", "report the estimate as converged"}};
 
@@ -186,6 +210,9 @@ const projtour_kind_desc kKinds[] = {
     driver_kind<TestDepthCamera>("test_depth_camera", "depth_camera", "null camera: no frames",
                                  kNullDeviceParams),
     driver_kind<TestProjector>("test_projector", "projector", "null projector", kNullDeviceParams),
+    driver_kind<TestColourCamera>("test_colour_camera", "colour_camera",
+                                  "null colour camera: no frames, notes exposure settings",
+                                  kColourCameraParams),
     with_keys(service_kind<OdometryLocalization>("odometry_localization", "localization",
                                                  "dead reckoning: base odometry as the estimate",
                                                  kLocalizationParams),

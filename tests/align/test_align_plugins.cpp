@@ -330,5 +330,184 @@ TEST(OpenNi2, NonexistentUriIsAClearError) {
   }
 }
 
+// The colour kind on the Dummy device (320x240 RGB888, a picture with pure blue pixels and no
+// pure red ones, so a channel swap shows).
+std::vector<ColourFrame> grab_colour(ColourCameraDriver& camera, std::size_t count, double& t_s) {
+  std::vector<ColourFrame> frames;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (frames.size() < count && std::chrono::steady_clock::now() < deadline) {
+    camera.update(t_s += 0.05);
+    if (auto f = camera.grab()) frames.push_back(std::move(*f));
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return frames;
+}
+
+std::shared_ptr<Driver> dummy_colour(const test::RunRig& rig) {
+  return registry().create_driver(
+      "openni2_colour", params_of("openni2_colour", {{"uri", std::string("Dummy")}}), rig.run);
+}
+
+TEST(OpenNi2Colour, DummyDeviceStreamsBgrFramesWithTheRobotFilesIntrinsics) {
+  test::RunRig rig{test::RunRig::RunDir::none};
+  PinholeModel& file = rig.mission.robot.camera.colour.intrinsics;
+  file = {320, 240, 262.0, 263.0, 160.5, 119.0, {0.2, -0.5, 0.001, 0.002, 0.7}};
+  auto driver = dummy_colour(rig);
+  auto* camera = dynamic_cast<ColourCameraDriver*>(driver.get());
+  ASSERT_NE(camera, nullptr);
+  double t_s = 10.0;
+  const std::vector<ColourFrame> frames = grab_colour(*camera, 3, t_s);
+  ASSERT_EQ(frames.size(), 3u);
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const ColourFrame& f = frames[i];
+    EXPECT_EQ(f.width, 320);
+    EXPECT_EQ(f.height, 240);
+    EXPECT_EQ(f.bgr.size(), 320u * 240u * 3u);
+    EXPECT_EQ(f.intrinsics.width, 320);
+    EXPECT_DOUBLE_EQ(f.intrinsics.fx, 262.0);
+    EXPECT_DOUBLE_EQ(f.intrinsics.fy, 263.0);
+    EXPECT_DOUBLE_EQ(f.intrinsics.cx, 160.5);
+    EXPECT_DOUBLE_EQ(f.intrinsics.cy, 119.0);
+    EXPECT_EQ(f.intrinsics.distortion, file.distortion);
+    EXPECT_DOUBLE_EQ(f.exposure_ms, 0.0);  // automatic
+    EXPECT_GE(f.t_s, 10.0);
+    if (i > 0) {
+      EXPECT_GT(f.t_s, frames[i - 1].t_s);
+      EXPECT_GT(f.sequence, frames[i - 1].sequence);
+    }
+    std::size_t blue = 0, red = 0;
+    for (int v = 0; v < f.height; ++v) {
+      for (int u = 0; u < f.width; ++u) {
+        const std::uint8_t* p = f.pixel(u, v);
+        blue += p[0] == 255 && p[1] == 0 && p[2] == 0;
+        red += p[0] == 0 && p[1] == 0 && p[2] == 255;
+      }
+    }
+    EXPECT_GT(blue, 0u) << "RGB888 (0, 0, 255) must arrive as BGR (255, 0, 0)";
+    EXPECT_EQ(red, 0u);
+  }
+}
+
+// The robot file's colour camera is the Kinect's 640x480; the Dummy streams half of it: the
+// same lens on a binned sensor.
+TEST(OpenNi2Colour, IntrinsicsScaleToTheStreamedSize) {
+  const test::RunRig rig{test::RunRig::RunDir::none};
+  auto driver = dummy_colour(rig);
+  auto* camera = dynamic_cast<ColourCameraDriver*>(driver.get());
+  ASSERT_NE(camera, nullptr);
+  double t_s = 0.0;
+  const std::vector<ColourFrame> frames = grab_colour(*camera, 1, t_s);
+  ASSERT_EQ(frames.size(), 1u);
+  const PinholeModel& k = frames[0].intrinsics;
+  const PinholeModel kinect = ColourCameraSpec{}.intrinsics;
+  EXPECT_EQ(k.width, 320);
+  EXPECT_EQ(k.height, 240);
+  EXPECT_DOUBLE_EQ(k.fx, kinect.fx / 2);
+  EXPECT_DOUBLE_EQ(k.fy, kinect.fy / 2);
+  EXPECT_DOUBLE_EQ(k.cx, 159.5);
+  EXPECT_DOUBLE_EQ(k.cy, 119.5);
+  EXPECT_EQ(k.distortion, kinect.distortion);
+  EXPECT_TRUE(rig.log.messages(LogLevel::warning).empty());
+}
+
+// The Dummy has no camera settings: one warning however often the exposure is set, and the
+// frames keep coming.
+TEST(OpenNi2Colour, ExposureOnADeviceWithoutSettingsWarnsOnceAndKeepsStreaming) {
+  test::RunRig rig{test::RunRig::RunDir::none};
+  rig.log.set_echo(LogLevel::error);
+  auto driver = dummy_colour(rig);
+  auto* camera = dynamic_cast<ColourCameraDriver*>(driver.get());
+  ASSERT_NE(camera, nullptr);
+  camera->set_exposure_ms(20.0);
+  camera->set_exposure_ms(0.0);
+  camera->set_exposure_ms(30.0);
+  const std::vector<std::string> warnings = rig.log.messages(LogLevel::warning);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("openni2_colour"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[0].find("exposure"), std::string::npos) << warnings[0];
+  double t_s = 0.0;
+  const std::vector<ColourFrame> frames = grab_colour(*camera, 2, t_s);
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_DOUBLE_EQ(frames[1].exposure_ms, 0.0);  // the device's own, not reported
+  EXPECT_THROW(camera->set_exposure_ms(-1.0), std::invalid_argument);
+}
+
+// Depth and colour of one device: one openni::Device, so one device clock. Once depth has
+// anchored it to mission time, colour frames follow device time however late they are polled.
+TEST(OpenNi2Colour, RunsBesideTheDepthKindOnOneDevice) {
+  const test::RunRig rig{test::RunRig::RunDir::none};
+  auto depth_driver = registry().create_driver(
+      "openni2", params_of("openni2", {{"uri", std::string("Dummy")}}), rig.run);
+  auto colour_driver = dummy_colour(rig);
+  auto* depth = dynamic_cast<DepthCameraDriver*>(depth_driver.get());
+  auto* colour = dynamic_cast<ColourCameraDriver*>(colour_driver.get());
+  ASSERT_NE(depth, nullptr);
+  ASSERT_NE(colour, nullptr);
+
+  std::vector<DepthFrame> depth_frames;
+  std::vector<ColourFrame> colour_frames;
+  double t_s = 10.0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while ((depth_frames.size() < 3 || colour_frames.size() < 3) &&
+         std::chrono::steady_clock::now() < deadline) {
+    t_s += 0.05;
+    depth->update(t_s);
+    colour->update(t_s);
+    if (auto f = depth->grab()) depth_frames.push_back(std::move(*f));
+    if (auto f = colour->grab()) colour_frames.push_back(std::move(*f));
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_GE(depth_frames.size(), 3u);
+  ASSERT_GE(colour_frames.size(), 3u);
+  for (std::size_t i = 1; i < colour_frames.size(); ++i) {
+    EXPECT_GT(colour_frames[i].t_s, colour_frames[i - 1].t_s);
+    EXPECT_GT(colour_frames[i].sequence, colour_frames[i - 1].sequence);
+    EXPECT_GT(depth_frames[std::min(i, depth_frames.size() - 1)].t_s, depth_frames[0].t_s);
+  }
+  EXPECT_EQ(colour_frames.back().width, 320);
+  EXPECT_GT(depth_frames.back().valid_count(), 0u);
+
+  // Mission time jumps a minute ahead of the device: the next colour frame is stamped by the
+  // shared clock, a fraction of a second after the last, not at the late poll.
+  const double last_s = colour_frames.back().t_s;
+  double late_s = t_s + 60.0;
+  const std::vector<ColourFrame> late = grab_colour(*colour, 1, late_s);
+  ASSERT_EQ(late.size(), 1u);
+  EXPECT_GT(late[0].t_s, last_s);
+  EXPECT_LT(late[0].t_s, last_s + 5.0);
+
+  // The device outlives either kind: colour keeps streaming once depth is gone, and depth
+  // opens again beside it.
+  depth_driver.reset();
+  double after_s = late_s;
+  EXPECT_EQ(grab_colour(*colour, 2, after_s).size(), 2u);
+  depth_driver = registry().create_driver(
+      "openni2", params_of("openni2", {{"uri", std::string("Dummy")}}), rig.run);
+  depth = dynamic_cast<DepthCameraDriver*>(depth_driver.get());
+  ASSERT_NE(depth, nullptr);
+  std::optional<DepthFrame> again;
+  for (int i = 0; i < 100 && !again; ++i) {
+    depth->update(after_s += 0.05);
+    again = depth->grab();
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->width, 320);
+}
+
+TEST(OpenNi2Colour, NonexistentUriIsAClearError) {
+  const test::RunRig rig{test::RunRig::RunDir::none};
+  try {
+    registry().create_driver(
+        "openni2_colour",
+        params_of("openni2_colour", {{"uri", std::string("/nonexistent/tour.oni")}}), rig.run);
+    FAIL() << "opened a nonexistent device";
+  } catch (const PluginError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("openni2_colour: cannot open"), std::string::npos) << what;
+    EXPECT_NE(what.find("/nonexistent/tour.oni"), std::string::npos) << what;
+  }
+}
+
 }  // namespace
 }  // namespace projtour

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
 #include "projtour_executor/executor.hpp"
 #include "projtour_executor/json_io.hpp"
@@ -328,7 +329,7 @@ TEST_F(Command, InterruptThenResume) {
   EXPECT_EQ(checkpoint.at("current_target").get<std::string>(), "pillar");
   EXPECT_EQ(read_json_file(run / "report.json").at("outcome").get<std::string>(), "interrupted");
   const std::string safe_stops = read_text(run / "test_drivers.log");
-  for (const char* d : {"test_base", "test_projector", "test_pan_tilt"}) {
+  for (const char* d : {"test_base", "test_projector", "test_pan_tilt", "test_colour_camera"}) {
     EXPECT_NE(safe_stops.find(std::string(d) + " safe_stop"), std::string::npos) << d;
   }
   const std::size_t events_before = read_jsonl(run / "events.jsonl").size();
@@ -493,6 +494,28 @@ states:
                                              "outcome tour done"}));
   EXPECT_EQ(executor.records()[0].retries, 1);
   EXPECT_DOUBLE_EQ(clock.now_s(), 0.05 * 6);
+}
+
+// The null colour camera fills the interface for hardware-free runs: no frames, and each
+// exposure setting noted beside the safe stops.
+TEST(ScriptedPlugin, NullColourCameraHasNoFramesAndNotesExposures) {
+  PluginRegistry registry;
+  registry.load_library(kPluginPath + "/libprojtour_testing.so");
+  const test::RunRig rig;
+  auto driver = registry.create_driver(
+      "test_colour_camera", default_params(registry.require("test_colour_camera").params), rig.run);
+  auto* camera = dynamic_cast<ColourCameraDriver*>(driver.get());
+  ASSERT_NE(camera, nullptr);
+  EXPECT_FALSE(camera->grab());
+  camera->set_exposure_ms(20);
+  camera->set_exposure_ms(0.5);
+  camera->set_exposure_ms(0);
+  camera->safe_stop();
+  EXPECT_EQ(read_text(rig.run.run_dir / "test_drivers.log"),
+            "test_colour_camera set_exposure_ms 20\n"
+            "test_colour_camera set_exposure_ms 0.5\n"
+            "test_colour_camera set_exposure_ms 0\n"
+            "test_colour_camera safe_stop\n");
 }
 
 TEST(ScriptedPlugin, MachineIsCheckedAgainstThePluginsDeclaredOutcomes) {

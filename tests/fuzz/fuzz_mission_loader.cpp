@@ -27,8 +27,9 @@ pan_tilt:
   tilt_joint: {pose: {x: 0, y: 0, z: 0.1, yaw_deg: 0}}
   pan_limits_deg: [-170, 170]
   tilt_limits_deg: [-30, 60]
-camera: {mount: pan, pose: {x: 0, y: 0, z: 0.2, yaw_deg: 0}, width: 640, height: 480, fx: 525, fy: 525, cx: 319.5, cy: 239.5}
+camera: {mount: pan, pose: {x: 0, y: 0, z: 0.2, yaw_deg: 0}, width: 640, height: 480, fx: 525, fy: 525, cx: 319.5, cy: 239.5, colour: {width: 640, cx: 319.5, distortion: [0.26, -0.95, 0, 0, 1.16]}}
 projector: {mount: tilt, pose: {x: 0.1, y: 0, z: 0, yaw_deg: 0}, width: 1280, height: 800, fx: 1920, fy: 1920, cx: 640, cy: 400}
+structured_light: {block_px: 16, hold_s: 0.05, min_correspondences: 40}
 )";
 
 void write(const std::filesystem::path& path, const std::string& text) {

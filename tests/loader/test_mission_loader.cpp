@@ -51,6 +51,7 @@ TEST_F(MissionLoader, FixtureLoadsWithAllValues) {
   EXPECT_EQ(hare.id, "hare");
   EXPECT_DOUBLE_EQ(hare.standoff_m, 1.0);  // defaults
   EXPECT_DOUBLE_EQ(hare.dwell_s, 10.0);
+  EXPECT_DOUBLE_EQ(hare.tolerance_mm, 3.0);
   EXPECT_TRUE(
       (hare.T_map_model.linear() * Eigen::Vector3d::UnitX()).isApprox(-Eigen::Vector3d::UnitY()));
 }
@@ -79,6 +80,19 @@ TEST_F(MissionLoader, MarksPointAtEachField) {
   // Absent optional fields point at their target.
   EXPECT_EQ(at("targets[1].standoff_m"), file + ":13:5");
   EXPECT_EQ(at("machine"), file + ":18:10");
+}
+
+TEST_F(MissionLoader, ToleranceIsReadPerTarget) {
+  Diagnostics diag;
+  const auto mission = load_mission(
+      write("m.yaml", replace(kMission, "dwell_s: 15", "dwell_s: 15\n    tolerance_mm: 2.5")),
+      diag);
+  ASSERT_TRUE(mission) << diag.format();
+  EXPECT_DOUBLE_EQ(mission->targets[0].tolerance_mm, 2.5);
+  EXPECT_DOUBLE_EQ(mission->targets[1].tolerance_mm, TargetSpec{}.tolerance_mm);
+  const SourceMark m = mission->mark_of("targets[0].tolerance_mm");
+  EXPECT_EQ(m.line, 13);
+  EXPECT_EQ(m.column, 19);
 }
 
 TEST_F(MissionLoader, RelativePathsResolveAgainstTheFileThatNamesThem) {
@@ -437,6 +451,26 @@ TEST_F(MissionLoader, NegativeStandoff) {
 TEST_F(MissionLoader, ZeroDwell) {
   EXPECT_THAT(mission_errors(replace(kMission, "dwell_s: 15", "dwell_s: 0")),
               ElementsAre(dir + "/m.yaml:12:14: targets[0].dwell_s: expected a number > 0, got 0"));
+}
+
+TEST_F(MissionLoader, ToleranceNotPositiveOrNotANumber) {
+  for (const char* bad : {"0", "-1.5"}) {
+    EXPECT_THAT(
+        mission_errors(
+            replace(kMission, "dwell_s: 15", "dwell_s: 15\n    tolerance_mm: " + std::string(bad))),
+        ElementsAre(dir + "/m.yaml:13:19: targets[0].tolerance_mm: expected a number > 0, got " +
+                    bad));
+  }
+  EXPECT_THAT(mission_errors(replace(kMission, "    content: sale.png\nmachine",
+                                     "    content: sale.png\n    tolerance_mm: tight\nmachine")),
+              ElementsAre(dir + "/m.yaml:18:19: targets[1].tolerance_mm: expected a number, got "
+                                "\"tight\""));
+}
+
+TEST_F(MissionLoader, UnknownToleranceSpellingSuggests) {
+  EXPECT_THAT(mission_errors(replace(kMission, "dwell_s: 15", "dwell_s: 15\n    tolerance: 2")),
+              ElementsAre(dir + "/m.yaml:13:5: targets[0].tolerance: unknown key \"tolerance\"; "
+                                "did you mean \"tolerance_mm\"?"));
 }
 
 TEST_F(MissionLoader, YawOutOfRange) {

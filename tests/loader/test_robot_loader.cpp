@@ -1,5 +1,6 @@
 // Robot files: the shipped example, values and defaults, and exact diagnostics for bad input.
 #include <cmath>
+#include <fstream>
 
 #include "loader_fixture.hpp"
 #include "projtour/geometry.hpp"
@@ -11,6 +12,20 @@ namespace {
 using ::testing::ElementsAre;
 
 class RobotLoader : public LoaderTest {};
+
+// kRobot with a camera.colour block (starting at line 20, its fields from line 21) ...
+std::string with_colour(const std::string& fields) {
+  return replace(kRobot, "  cy: 239.5\n", "  cy: 239.5\n  colour:\n" + fields);
+}
+// ... or a structured_light section (line 30, its fields from line 31).
+std::string with_structured_light(const std::string& fields) {
+  return replace(kRobot, "drivers:", "structured_light:\n" + fields + "drivers:");
+}
+
+struct BadValue {
+  std::string fields;    // what the section holds
+  std::string expected;  // the one diagnostic, after "<dir>/r.yaml:"
+};
 
 // ---------------------------------------------------------------- good input
 
@@ -39,14 +54,51 @@ TEST_F(RobotLoader, ShippedUbiquitousDisplayLoads) {
   EXPECT_EQ(robot->projector.intrinsics.height, 800);
   EXPECT_NEAR(robot->projector.intrinsics.throw_ratio(), 1.5, 0.05);
   EXPECT_TRUE(robot->projector.intrinsics.has_distortion());
-  ASSERT_EQ(robot->drivers.size(), 4u);
+  const PinholeModel& colour = robot->camera.colour.intrinsics;
+  EXPECT_EQ(colour.width, 640);
+  EXPECT_EQ(colour.height, 480);
+  EXPECT_DOUBLE_EQ(colour.fx, 525.0);
+  EXPECT_DOUBLE_EQ(colour.cy, 239.5);
+  EXPECT_DOUBLE_EQ(colour.distortion[0], 0.2624);
+  EXPECT_DOUBLE_EQ(colour.distortion[4], 1.1633);
+  EXPECT_DOUBLE_EQ(robot->camera.colour.rate_hz, 30.0);
+  ASSERT_EQ(robot->drivers.size(), 5u);
   EXPECT_EQ(robot->drivers.at("depth_camera").kind, "openni2");
+  EXPECT_EQ(robot->drivers.at("colour_camera").kind, "openni2_colour");
   EXPECT_EQ(robot->drivers.at("pan_tilt").kind, "ptu_dperception");
   EXPECT_EQ(robot->drivers.at("laser").kind, "mrpt_sensor");
   EXPECT_EQ(robot->drivers.at("projector").kind, "display");
   EXPECT_EQ(robot->drivers.at("pan_tilt").params_path, "drivers.pan_tilt.params");
   EXPECT_EQ(robot->drivers.at("pan_tilt").params["port"].as<std::string>(), "/dev/ttyUSB0");
   EXPECT_EQ(robot->services.at("localization").kind, "mrpt_localization");
+}
+
+// ud.yaml documents structured_light as a commented section of its defaults: uncommented, it
+// must load and say what the defaults are.
+TEST_F(RobotLoader, DocumentedStructuredLightIsTheDefaults) {
+  std::ifstream in(PROJTOUR_SOURCE_DIR "/examples/robot/ud.yaml");
+  std::string text, line;
+  bool in_section = false, found = false;
+  while (std::getline(in, line)) {
+    if (line == "# structured_light:") in_section = found = true;
+    if (in_section && line.rfind("# ", 0) == 0) {
+      line.erase(0, 2);
+    } else {
+      in_section = false;
+    }
+    text += line + "\n";
+  }
+  ASSERT_TRUE(found) << "ud.yaml lacks its commented structured_light section";
+  Diagnostics diag;
+  const auto robot = load_robot(write("ud.yaml", text), diag);
+  ASSERT_TRUE(robot) << diag.format();
+  const StructuredLightSpec defaults;
+  const StructuredLightSpec& light = robot->structured_light;
+  EXPECT_EQ(light.block_px, defaults.block_px);
+  EXPECT_NEAR(light.hold_s, defaults.hold_s, 1e-4);  // written to four places
+  EXPECT_DOUBLE_EQ(light.exposure_ms, defaults.exposure_ms);
+  EXPECT_EQ(light.min_correspondences, defaults.min_correspondences);
+  EXPECT_DOUBLE_EQ(light.max_residual_px, defaults.max_residual_px);
 }
 
 TEST_F(RobotLoader, PitchTurnsTheCameraNoseDown) {
@@ -71,6 +123,20 @@ TEST_F(RobotLoader, OptionalFieldsTakeDefaults) {
   EXPECT_DOUBLE_EQ(robot->pan_tilt.max_rate_dps, defaults.pan_tilt.max_rate_dps);
   EXPECT_DOUBLE_EQ(robot->camera.min_range_m, defaults.camera.min_range_m);
   EXPECT_TRUE(robot->camera.depth_to_color_m.isZero());
+  // Without camera.colour: the Kinect v1's colour camera.
+  const ColourCameraSpec& colour = robot->camera.colour;
+  EXPECT_EQ(colour.intrinsics.width, defaults.camera.colour.intrinsics.width);
+  EXPECT_EQ(colour.intrinsics.height, defaults.camera.colour.intrinsics.height);
+  EXPECT_DOUBLE_EQ(colour.intrinsics.fx, defaults.camera.colour.intrinsics.fx);
+  EXPECT_DOUBLE_EQ(colour.intrinsics.cx, defaults.camera.colour.intrinsics.cx);
+  EXPECT_EQ(colour.intrinsics.distortion, defaults.camera.colour.intrinsics.distortion);
+  EXPECT_DOUBLE_EQ(colour.rate_hz, defaults.camera.colour.rate_hz);
+  const StructuredLightSpec& light = robot->structured_light;
+  EXPECT_EQ(light.block_px, defaults.structured_light.block_px);
+  EXPECT_DOUBLE_EQ(light.hold_s, defaults.structured_light.hold_s);
+  EXPECT_DOUBLE_EQ(light.exposure_ms, defaults.structured_light.exposure_ms);
+  EXPECT_EQ(light.min_correspondences, defaults.structured_light.min_correspondences);
+  EXPECT_DOUBLE_EQ(light.max_residual_px, defaults.structured_light.max_residual_px);
   ASSERT_EQ(robot->drivers.size(), 1u);
   EXPECT_EQ(robot->drivers.at("pan_tilt").mark.line, 31);
   EXPECT_EQ(robot->drivers.at("pan_tilt").mark.column, 45);
@@ -79,6 +145,66 @@ TEST_F(RobotLoader, OptionalFieldsTakeDefaults) {
   EXPECT_EQ(robot->services.at("localization").kind, "mrpt_localization");
   EXPECT_FALSE(robot->services.at("localization").params.IsDefined());
   EXPECT_EQ(robot->services.at("localization").params_path, "services.localization.params");
+}
+
+TEST_F(RobotLoader, ColourCameraValuesAreRead) {
+  Diagnostics diag;
+  const auto robot = load_robot(write("r.yaml", with_colour("    width: 1280\n"
+                                                            "    height: 1024\n"
+                                                            "    fx: 1050\n"
+                                                            "    fy: 1051\n"
+                                                            "    cx: 639.5\n"
+                                                            "    cy: 511.5\n"
+                                                            "    distortion: [0.1, -0.2, 0.001, "
+                                                            "0.002, 0.3]\n"
+                                                            "    rate_hz: 15\n")),
+                                diag);
+  ASSERT_TRUE(robot) << diag.format();
+  const PinholeModel& k = robot->camera.colour.intrinsics;
+  EXPECT_EQ(k.width, 1280);
+  EXPECT_EQ(k.height, 1024);
+  EXPECT_DOUBLE_EQ(k.fx, 1050.0);
+  EXPECT_DOUBLE_EQ(k.fy, 1051.0);
+  EXPECT_DOUBLE_EQ(k.cx, 639.5);
+  EXPECT_DOUBLE_EQ(k.cy, 511.5);
+  EXPECT_EQ(k.distortion, (std::array<double, 5>{0.1, -0.2, 0.001, 0.002, 0.3}));
+  EXPECT_DOUBLE_EQ(robot->camera.colour.rate_hz, 15.0);
+  // The depth camera's own intrinsics are untouched.
+  EXPECT_EQ(robot->camera.intrinsics.width, 640);
+  EXPECT_FALSE(robot->camera.intrinsics.has_distortion());
+}
+
+// Each field of camera.colour is optional on its own: the others keep the Kinect's values.
+TEST_F(RobotLoader, ColourCameraFieldsDefaultOneByOne) {
+  Diagnostics diag;
+  const auto robot =
+      load_robot(write("r.yaml", with_colour("    fx: 530\n    rate_hz: 25\n")), diag);
+  ASSERT_TRUE(robot) << diag.format();
+  const ColourCameraSpec defaults;
+  const PinholeModel& k = robot->camera.colour.intrinsics;
+  EXPECT_DOUBLE_EQ(k.fx, 530.0);
+  EXPECT_DOUBLE_EQ(k.fy, defaults.intrinsics.fy);
+  EXPECT_EQ(k.width, defaults.intrinsics.width);
+  EXPECT_DOUBLE_EQ(k.cx, defaults.intrinsics.cx);
+  EXPECT_EQ(k.distortion, defaults.intrinsics.distortion);
+  EXPECT_DOUBLE_EQ(robot->camera.colour.rate_hz, 25.0);
+}
+
+TEST_F(RobotLoader, StructuredLightValuesAreRead) {
+  Diagnostics diag;
+  const auto robot = load_robot(write("r.yaml", with_structured_light("  block_px: 8\n"
+                                                                      "  hold_s: 0.1\n"
+                                                                      "  exposure_ms: 0\n"
+                                                                      "  min_correspondences: 12\n"
+                                                                      "  max_residual_px: 2.5\n")),
+                                diag);
+  ASSERT_TRUE(robot) << diag.format();
+  const StructuredLightSpec& light = robot->structured_light;
+  EXPECT_EQ(light.block_px, 8);
+  EXPECT_DOUBLE_EQ(light.hold_s, 0.1);
+  EXPECT_DOUBLE_EQ(light.exposure_ms, 0.0);
+  EXPECT_EQ(light.min_correspondences, 12);
+  EXPECT_DOUBLE_EQ(light.max_residual_px, 2.5);
 }
 
 // A driver written without params used to get a default-constructed YAML::Node, which is Null
@@ -158,6 +284,78 @@ TEST_F(RobotLoader, PrincipalPointOutsideTheImage) {
   EXPECT_THAT(robot_errors(replace(kRobot, "cx: 319.5", "cx: 700")),
               ElementsAre(dir + "/r.yaml:18:7: camera.cx: principal point x 700 lies outside "
                                 "the image [0, 640]"));
+}
+
+TEST_F(RobotLoader, BadColourCameraValues) {
+  const std::vector<BadValue> cases = {
+      {"    width: 0\n", "21:12: camera.colour.width: expected an integer > 0, got 0"},
+      {"    height: 480.5\n", "21:13: camera.colour.height: expected an integer, got \"480.5\""},
+      {"    width: 20000\n",
+       "21:12: camera.colour.width: expected at most 16384 pixels, got 20000"},
+      {"    fx: -525\n", "21:9: camera.colour.fx: expected a number > 0, got -525"},
+      {"    fy: 0\n", "21:9: camera.colour.fy: expected a number > 0, got 0"},
+      {"    cx: 700\n",
+       "21:9: camera.colour.cx: principal point x 700 lies outside the image [0, 640]"},
+      {"    width: 320\n    height: 240\n    cy: 250\n",
+       "23:9: camera.colour.cy: principal point y 250 lies outside the image [0, 240]"},
+      // A smaller image with the default principal point: reported at the size written.
+      {"    width: 300\n",
+       "21:12: camera.colour.width: principal point x 319.5 (cx's default) lies outside the "
+       "image [0, 300]"},
+      {"    cy: centre\n", "21:9: camera.colour.cy: expected a number, got \"centre\""},
+      {"    distortion: [0.26, -0.95, 0, 0]\n",
+       "21:17: camera.colour.distortion: expected 5 numbers [k1, k2, p1, p2, k3], got 4"},
+      {"    distortion: 0\n", "21:17: camera.colour.distortion: expected a list, got \"0\""},
+      {"    rate_hz: -30\n", "21:14: camera.colour.rate_hz: expected a number > 0, got -30"},
+      {"    fov_deg: 62\n", "21:5: camera.colour.fov_deg: unknown key \"fov_deg\""},
+      {"    rate_hz: 30\n    rate_hz: 15\n",
+       "22:5: camera.colour.rate_hz: duplicate key \"rate_hz\" (first at line 21)"},
+  };
+  for (const BadValue& c : cases) {
+    SCOPED_TRACE(c.fields);
+    EXPECT_THAT(robot_errors(with_colour(c.fields)), ElementsAre(dir + "/r.yaml:" + c.expected));
+  }
+}
+
+TEST_F(RobotLoader, ColourCameraNotAMapping) {
+  EXPECT_THAT(robot_errors(replace(kRobot, "  cy: 239.5\n", "  cy: 239.5\n  colour: kinect\n")),
+              ElementsAre(dir + "/r.yaml:20:11: camera.colour: expected a mapping, got "
+                                "\"kinect\""));
+}
+
+TEST_F(RobotLoader, BadStructuredLightValues) {
+  const std::vector<BadValue> cases = {
+      {"  block_px: 1\n", "31:13: structured_light.block_px: expected an integer >= 2, got 1"},
+      {"  block_px: -16\n", "31:13: structured_light.block_px: expected an integer >= 2, got -16"},
+      {"  block_px: 8.5\n", "31:13: structured_light.block_px: expected an integer, got \"8.5\""},
+      // The fixture's projector is 1280x800.
+      {"  block_px: 1000\n",
+       "31:13: structured_light.block_px: block of 1000 px does not fit the projector's "
+       "1280x800 image"},
+      {"  hold_s: 0\n", "31:11: structured_light.hold_s: expected a number > 0, got 0"},
+      {"  hold_s: fast\n", "31:11: structured_light.hold_s: expected a number, got \"fast\""},
+      {"  exposure_ms: -1\n",
+       "31:16: structured_light.exposure_ms: expected a number >= 0, got -1"},
+      {"  min_correspondences: 5\n",
+       "31:24: structured_light.min_correspondences: expected an integer >= 6, got 5"},
+      {"  min_correspondences: 40.5\n",
+       "31:24: structured_light.min_correspondences: expected an integer, got \"40.5\""},
+      {"  max_residual_px: 0\n",
+       "31:20: structured_light.max_residual_px: expected a number > 0, got 0"},
+      {"  blocks_px: 16\n",
+       "31:3: structured_light.blocks_px: unknown key \"blocks_px\"; did you mean \"block_px\"?"},
+  };
+  for (const BadValue& c : cases) {
+    SCOPED_TRACE(c.fields);
+    EXPECT_THAT(robot_errors(with_structured_light(c.fields)),
+                ElementsAre(dir + "/r.yaml:" + c.expected));
+  }
+}
+
+TEST_F(RobotLoader, StructuredLightNotAMapping) {
+  EXPECT_THAT(robot_errors(replace(kRobot, "drivers:", "structured_light: [16]\ndrivers:")),
+              ElementsAre(dir + "/r.yaml:30:19: structured_light: expected a mapping, got a "
+                                "list"));
 }
 
 TEST_F(RobotLoader, DriverWithoutKind) {

@@ -157,7 +157,7 @@ INSTANTIATE_TEST_SUITE_P(
                       "\"float\" (expected number, integer, boolean or string)"},
         MalformedCase{4,
                       "kind \"fixture_malformed\": driver interface \"hoverboard\" is not one of "
-                      "base, laser, pan_tilt, depth_camera, projector"},
+                      "base, laser, pan_tilt, depth_camera, projector, colour_camera"},
         MalformedCase{5, "kind \"fixture_malformed\": null create function"},
         MalformedCase{6,
                       "kind \"fixture_malformed\": parameter \"tolerance_m\": default \"north\" "

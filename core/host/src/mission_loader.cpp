@@ -118,8 +118,8 @@ class MissionReader {
   std::optional<TargetSpec> read_target(const YamlField& f,
                                         std::map<std::string, int>& first_line_of_id) {
     if (!f.expect_map()) return std::nullopt;
-    loader::check_keys(f,
-                       {"id", "model", "pose", "model_points", "content", "standoff_m", "dwell_s"});
+    loader::check_keys(f, {"id", "model", "pose", "model_points", "content", "standoff_m",
+                           "dwell_s", "tolerance_mm"});
     const std::size_t errors_before = diag_.error_count();
     TargetSpec target;
 
@@ -143,6 +143,9 @@ class MissionReader {
     if (auto path = read_content(note(f["content"]))) target.content = *path;
     if (auto v = read_number(note(f["standoff_m"]), false, Sign::positive)) target.standoff_m = *v;
     if (auto v = read_number(note(f["dwell_s"]), false, Sign::positive)) target.dwell_s = *v;
+    if (auto v = read_number(note(f["tolerance_mm"]), false, Sign::positive)) {
+      target.tolerance_mm = *v;
+    }
 
     if (diag_.error_count() > errors_before) return std::nullopt;
     return target;

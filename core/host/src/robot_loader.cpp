@@ -1,4 +1,6 @@
 // The robot file (format documented in examples/robot/ud.yaml).
+#include <algorithm>
+
 #include "loader_fields.hpp"
 #include "projtour/mission_loader.hpp"
 
@@ -114,8 +116,8 @@ void read_mount(const YamlField& f, MountSpec& mount) {
   if (auto T = loader::read_pose(f["pose"])) mount.T_link_body = *T;
 }
 
-std::optional<int> read_image_side(const YamlField& f) {
-  const auto v = read_integer(f, true, Sign::positive);
+std::optional<int> read_image_side(const YamlField& f, bool required) {
+  const auto v = read_integer(f, required, Sign::positive);
   if (!v) return std::nullopt;
   if (*v > kMaxImageSide) {
     f.error("expected at most " + std::to_string(kMaxImageSide) + " pixels, got " +
@@ -125,38 +127,72 @@ std::optional<int> read_image_side(const YamlField& f) {
   return static_cast<int>(*v);
 }
 
-// width, height, fx, fy, cx, cy (the principal point inside the image).
-void read_intrinsics(const YamlField& f, PinholeModel& model) {
-  const auto width = read_image_side(f["width"]);
-  const auto height = read_image_side(f["height"]);
-  const auto fx = read_number(f["fx"], true, Sign::positive);
-  const auto fy = read_number(f["fy"], true, Sign::positive);
-  const auto cx = read_number(f["cx"], true);
-  const auto cy = read_number(f["cy"], true);
+// What a field of a model stands at after reading: the value read; for an optional field left
+// out, the model's default; nullopt when it was required or written wrong (reported already),
+// so no check builds on it.
+template <typename T>
+std::optional<T> effective(const YamlField& f, const std::optional<T>& read, bool required,
+                           T fallback) {
+  if (read) return read;
+  if (!required && !f.defined()) return fallback;
+  return std::nullopt;
+}
+
+// The principal point along one axis inside [0, side]. With optional fields a default can meet
+// a written value, so the check runs when either was written and is reported at the one written
+// (the point when both were).
+void check_principal_point(const YamlField& f, const std::string& point_key,
+                           const std::string& side_key, const char* axis,
+                           const std::optional<double>& point, const std::optional<int>& side) {
+  if (!point || !side) return;
+  const YamlField point_field = f[point_key];
+  const YamlField side_field = f[side_key];
+  if (!point_field.defined() && !side_field.defined()) return;
+  if (*point >= 0.0 && *point <= *side) return;
+  const std::string by_default = point_field.defined() ? "" : " (" + point_key + "'s default)";
+  (point_field.defined() ? point_field : side_field)
+      .error(std::string("principal point ") + axis + " " + format_number(*point) + by_default +
+             " lies outside the image [0, " + std::to_string(*side) + "]");
+}
+
+// width, height, fx, fy, cx, cy (the principal point inside the image). Where not `required`,
+// a field left out keeps the model's value.
+void read_intrinsics(const YamlField& f, PinholeModel& model, bool required = true) {
+  const auto width =
+      effective(f["width"], read_image_side(f["width"], required), required, model.width);
+  const auto height =
+      effective(f["height"], read_image_side(f["height"], required), required, model.height);
+  const auto fx = read_number(f["fx"], required, Sign::positive);
+  const auto fy = read_number(f["fy"], required, Sign::positive);
+  const auto cx = effective(f["cx"], read_number(f["cx"], required), required, model.cx);
+  const auto cy = effective(f["cy"], read_number(f["cy"], required), required, model.cy);
+  check_principal_point(f, "cx", "width", "x", cx, width);
+  check_principal_point(f, "cy", "height", "y", cy, height);
   if (width) model.width = *width;
   if (height) model.height = *height;
   if (fx) model.fx = *fx;
   if (fy) model.fy = *fy;
-  if (cx) {
-    if (width && (*cx < 0.0 || *cx > *width)) {
-      f["cx"].error("principal point x " + format_number(*cx) + " lies outside the image [0, " +
-                    std::to_string(*width) + "]");
-    }
-    model.cx = *cx;
-  }
-  if (cy) {
-    if (height && (*cy < 0.0 || *cy > *height)) {
-      f["cy"].error("principal point y " + format_number(*cy) + " lies outside the image [0, " +
-                    std::to_string(*height) + "]");
-    }
-    model.cy = *cy;
-  }
+  if (cx) model.cx = *cx;
+  if (cy) model.cy = *cy;
+}
+
+void read_distortion(const YamlField& f, PinholeModel& model) {
+  if (auto d = loader::read_numbers<5>(f, false, "[k1, k2, p1, p2, k3]")) model.distortion = *d;
+}
+
+// Every field optional: the defaults are the Kinect v1's colour camera.
+void read_colour_camera(const YamlField& f, ColourCameraSpec& colour) {
+  if (!f.expect_map(false)) return;
+  loader::check_keys(f, {"width", "height", "fx", "fy", "cx", "cy", "distortion", "rate_hz"});
+  read_intrinsics(f, colour.intrinsics, false);
+  read_distortion(f["distortion"], colour.intrinsics);
+  if (auto v = read_number(f["rate_hz"], false, Sign::positive)) colour.rate_hz = *v;
 }
 
 void read_camera(const YamlField& f, CameraSpec& camera) {
   if (!f.expect_map()) return;
   loader::check_keys(f, {"mount", "pose", "width", "height", "fx", "fy", "cx", "cy",
-                         "depth_to_color_m", "min_range_m", "max_range_m", "rate_hz"});
+                         "depth_to_color_m", "min_range_m", "max_range_m", "rate_hz", "colour"});
   read_mount(f, camera.mount);
   read_intrinsics(f, camera.intrinsics);
   if (auto v = loader::read_numbers<3>(f["depth_to_color_m"], false, "[x, y, z]")) {
@@ -172,6 +208,7 @@ void read_camera(const YamlField& f, CameraSpec& camera) {
                                                        format_number(camera.max_range_m));
   }
   if (auto v = read_number(f["rate_hz"], false, Sign::positive)) camera.rate_hz = *v;
+  read_colour_camera(f["colour"], camera.colour);
 }
 
 void read_projector(const YamlField& f, ProjectorSpec& projector) {
@@ -179,8 +216,46 @@ void read_projector(const YamlField& f, ProjectorSpec& projector) {
   loader::check_keys(f, {"mount", "pose", "width", "height", "fx", "fy", "cx", "cy", "distortion"});
   read_mount(f, projector.mount);
   read_intrinsics(f, projector.intrinsics);
-  if (auto d = loader::read_numbers<5>(f["distortion"], false, "[k1, k2, p1, p2, k3]")) {
-    projector.intrinsics.distortion = *d;
+  read_distortion(f["distortion"], projector.intrinsics);
+}
+
+std::optional<long long> read_integer_at_least(const YamlField& f, long long least) {
+  const auto v = f.as_int(false);
+  if (!v) return std::nullopt;
+  if (*v < least) {
+    f.error("expected an integer >= " + std::to_string(least) + ", got " + f.node().Scalar());
+    return std::nullopt;
+  }
+  return v;
+}
+
+// The calibrate step's Gray-code settings; `projector` bounds the block (when it was read).
+void read_structured_light(const YamlField& f, const PinholeModel& projector,
+                           StructuredLightSpec& light) {
+  if (!f.expect_map(false)) return;
+  loader::check_keys(
+      f, {"block_px", "hold_s", "exposure_ms", "min_correspondences", "max_residual_px"});
+  // At least 2: a 1-pixel stripe is beyond what the colour camera resolves at any distance and
+  // leaves no margin for the block's centroid.
+  if (auto v = read_integer_at_least(f["block_px"], 2)) {
+    const int smaller_side = std::min(projector.width, projector.height);
+    if (smaller_side > 0 && *v > smaller_side) {
+      // No stripe fits: the sequence would code nothing along that axis.
+      f["block_px"].error("block of " + std::to_string(*v) + " px does not fit the projector's " +
+                          std::to_string(projector.width) + "x" + std::to_string(projector.height) +
+                          " image");
+    } else {
+      light.block_px = static_cast<int>(*v);
+    }
+  }
+  if (auto v = read_number(f["hold_s"], false, Sign::positive)) light.hold_s = *v;
+  if (auto v = read_number(f["exposure_ms"], false, Sign::non_negative)) light.exposure_ms = *v;
+  // Six correspondences are the least the projector's pose (six unknowns) can be fitted from.
+  if (auto v = read_integer_at_least(f["min_correspondences"], 6)) {
+    light.min_correspondences = static_cast<int>(*v);
+  }
+  if (auto v = read_number(f["max_residual_px"], false, Sign::positive)) {
+    light.max_residual_px = *v;
   }
 }
 
@@ -206,8 +281,8 @@ std::optional<LoadedRobot> read_robot(const YAML::Node& node, const std::string&
     return std::nullopt;
   }
   if (!root.expect_map()) return std::nullopt;
-  loader::check_keys(
-      root, {"robot", "base", "laser", "pan_tilt", "camera", "projector", "drivers", "services"});
+  loader::check_keys(root, {"robot", "base", "laser", "pan_tilt", "camera", "projector",
+                            "structured_light", "drivers", "services"});
 
   LoadedRobot robot;
   robot.file = file;
@@ -217,6 +292,8 @@ std::optional<LoadedRobot> read_robot(const YAML::Node& node, const std::string&
   read_pan_tilt(root["pan_tilt"], robot.pan_tilt);
   read_camera(root["camera"], robot.camera);
   read_projector(root["projector"], robot.projector);
+  read_structured_light(root["structured_light"], robot.projector.intrinsics,
+                        robot.structured_light);
   read_instances(root["drivers"],
                  {"base", "laser", "pan_tilt", "depth_camera", "projector", "colour_camera"},
                  robot.drivers);
