@@ -284,6 +284,20 @@ std::vector<ColourFrame> render_sequence(const ColourRenderer& renderer,
   return frames;
 }
 
+Correspondences lift_blocks(const light::DecodeResult& decoded,
+                            const light::RegisteredDepth& depth) {
+  Correspondences c;
+  c.points_camera.reserve(decoded.blocks.size());
+  c.projector_px.reserve(decoded.blocks.size());
+  for (const light::BlockCorrespondence& b : decoded.blocks) {
+    const auto p = light::lift(depth, b.colour_px);
+    if (!p) continue;
+    c.points_camera.push_back(*p);
+    c.projector_px.push_back(b.projector_px);
+  }
+  return c;
+}
+
 DepthFrame render_depth(const LightRig& rig, const Scene& scene, std::uint64_t seed, bool noise) {
   // Kinect v1: disparity in 1/8 pixel steps over a 7.5 cm baseline at f = 580 px, so inverse
   // depth comes in steps of 1 / (8 * 580 * 0.075) = 1 / 348 per metre; sigma 1.4e-3 z^2 in

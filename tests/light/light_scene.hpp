@@ -16,6 +16,7 @@
 #include "projtour/gray_code.hpp"
 #include "projtour/model_cloud.hpp"
 #include "projtour/pinhole.hpp"
+#include "projtour/registered_depth.hpp"
 
 namespace projtour::test {
 
@@ -117,6 +118,15 @@ class ColourRenderer {
 std::vector<ColourFrame> render_sequence(const ColourRenderer& renderer,
                                          const light::GrayCodeSequence& sequence,
                                          const cv::Mat& mask = cv::Mat(), std::uint64_t seed = 1);
+
+// The decoded blocks lifted to 3-D (those that lift), beside the projector pixels that lit them:
+// the input of the camera-projector fit.
+struct Correspondences {
+  std::vector<Eigen::Vector3d> points_camera;
+  std::vector<Eigen::Vector2d> projector_px;
+};
+Correspondences lift_blocks(const light::DecodeResult& decoded,
+                            const light::RegisteredDepth& depth);
 
 // The scene's depth frame from the depth camera: millimetres, with Kinect-v1 noise when `noise`
 // (Gaussian in disparity, sigma_z = 1.4e-3 z^2, then quantised to 1/8 disparity pixel).

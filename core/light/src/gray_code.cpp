@@ -5,6 +5,7 @@
 #include "projtour/gray_code.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <opencv2/imgproc.hpp>
@@ -155,32 +156,68 @@ std::string check_frames(const GrayCodeSequence& sequence, const std::vector<Col
   return "";
 }
 
-// A block's camera pixels (u, v) -> its correspondence, or false when they are too few or do
-// not form one compact spot. The median is robust to a minority decoded far away (a wrong bit);
-// the kept radius is twice that of a disc of the block's pixel count, so a spot stretched by an
-// oblique surface still passes while pixels strewn over the image do not.
-bool block_centroid(std::vector<Eigen::Vector2f>& pixels, int min_pixels, Eigen::Vector2d& centroid,
-                    int& kept) {
-  const std::size_t n = pixels.size();
-  std::vector<float> coordinate(n);
+// Where a block's pixels are: the median of those that decoded to it, robust to a minority
+// decoded far away (a wrong bit), and how far from it they may lie -- twice the radius of a disc
+// of the block's pixel count, so a spot stretched by an oblique surface still passes while
+// pixels strewn over the image do not.
+// A block is kept with a footprint at least this fraction of its neighbours' median.
+constexpr double kMinFootprint = 0.85;
+
+struct Spot {
+  Eigen::Vector2f median = Eigen::Vector2f::Zero();
+  float radius_sq = 0.0f;
+  int kept = 0;
+  bool found = false;
+  bool holds(const Eigen::Vector2f& p) const { return (p - median).squaredNorm() <= radius_sq; }
+};
+
+Spot find_spot(const Eigen::Vector2f* pixels, int n, int min_pixels, std::vector<float>& scratch) {
+  Spot spot;
+  if (n < min_pixels) return spot;
+  scratch.resize(static_cast<std::size_t>(n));
   const auto median_of = [&](int axis) {
-    for (std::size_t i = 0; i < n; ++i) coordinate[i] = pixels[i][axis];
-    std::nth_element(coordinate.begin(), coordinate.begin() + n / 2, coordinate.end());
-    return coordinate[n / 2];
+    for (int i = 0; i < n; ++i) scratch[static_cast<std::size_t>(i)] = pixels[i][axis];
+    std::nth_element(scratch.begin(), scratch.begin() + n / 2, scratch.end());
+    return scratch[static_cast<std::size_t>(n / 2)];
   };
-  const Eigen::Vector2f median(median_of(0), median_of(1));
+  spot.median = Eigen::Vector2f(median_of(0), median_of(1));
   const float radius = 2.0f * std::sqrt(static_cast<float>(n) / 3.14159265f) + 1.5f;
-  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-  kept = 0;
-  for (const Eigen::Vector2f& p : pixels) {
-    if ((p - median).squaredNorm() > radius * radius) continue;
-    sum += p.cast<double>();
-    ++kept;
-  }
+  spot.radius_sq = radius * radius;
+  for (int i = 0; i < n; ++i) spot.kept += spot.holds(pixels[i]);
   // Without a majority in one spot the median itself is meaningless.
-  if (kept < min_pixels || 2 * kept <= static_cast<int>(n)) return false;
-  centroid = sum / kept;
-  return true;
+  spot.found = spot.kept >= min_pixels && 2 * spot.kept > n;
+  return spot;
+}
+
+// Along one axis of the block grid, for each block index: the frame pair whose bit flips at the
+// boundary with the block before (the after) it, and whether this block's bit there is 1. A
+// camera pixel across that boundary sees the pattern minus its inverse at a fraction of the full
+// contrast, which tells how much of it lies on each side.
+struct BoundaryBits {
+  std::vector<std::int16_t> frame_before, frame_after;  // -1: the grid's edge
+  std::vector<std::int8_t> sign_before, sign_after;     // +1: this block's bit is 1 there
+};
+
+BoundaryBits boundary_bits(int blocks, int bits, int first_frame) {
+  BoundaryBits b;
+  b.frame_before.assign(static_cast<std::size_t>(blocks), -1);
+  b.frame_after.assign(static_cast<std::size_t>(blocks), -1);
+  b.sign_before.assign(static_cast<std::size_t>(blocks), 0);
+  b.sign_after.assign(static_cast<std::size_t>(blocks), 0);
+  const auto gray = [](std::uint32_t x) { return x ^ (x >> 1); };
+  for (int c = 0; c + 1 < blocks; ++c) {
+    // Adjacent Gray codes differ in exactly one bit; frames hold the most significant first.
+    const std::uint32_t flip = gray(c) ^ gray(c + 1);
+    int position = 0;
+    while (!((flip >> position) & 1u)) ++position;
+    const auto frame = static_cast<std::int16_t>(first_frame + 2 * (bits - 1 - position));
+    const auto i = static_cast<std::size_t>(c);
+    b.frame_after[i] = frame;
+    b.sign_after[i] = (gray(c) >> position) & 1u ? 1 : -1;
+    b.frame_before[i + 1] = frame;
+    b.sign_before[i + 1] = static_cast<std::int8_t>(-b.sign_after[i]);
+  }
+  return b;
 }
 
 }  // namespace
@@ -240,29 +277,130 @@ DecodeResult decode(const GrayCodeSequence& sequence, const std::vector<ColourFr
     ++result.decoded_pixels;
   }
   for (std::size_t b = 0; b < blocks; ++b) first[b + 1] += first[b];
+  const auto pixel_of = [&roi](std::size_t i) {
+    return Eigen::Vector2f(static_cast<float>(roi.x + static_cast<int>(i % roi.width)),
+                           static_cast<float>(roi.y + static_cast<int>(i / roi.width)));
+  };
   std::vector<Eigen::Vector2f> grouped(static_cast<std::size_t>(result.decoded_pixels));
+  std::vector<std::int32_t> grouped_index(grouped.size());
   {
     std::vector<std::int32_t> next(first.begin(), first.end() - 1);
     for (std::size_t i = 0; i < count; ++i) {
       if (block_of[i] < 0) continue;
-      const int u = roi.x + static_cast<int>(i % roi.width);
-      const int v = roi.y + static_cast<int>(i / roi.width);
-      grouped[static_cast<std::size_t>(next[static_cast<std::size_t>(block_of[i])]++)] =
-          Eigen::Vector2f(static_cast<float>(u), static_cast<float>(v));
+      const auto slot = static_cast<std::size_t>(next[static_cast<std::size_t>(block_of[i])]++);
+      grouped[slot] = pixel_of(i);
+      grouped_index[slot] = static_cast<std::int32_t>(i);
     }
   }
 
-  std::vector<Eigen::Vector2f> pixels;
   const int min_pixels = std::max(1, settings.min_pixels_per_block);
+  std::vector<Spot> spots(blocks);
+  {
+    std::vector<float> scratch;
+    for (std::size_t b = 0; b < blocks; ++b) {
+      spots[b] = find_spot(grouped.data() + first[b], first[b + 1] - first[b], min_pixels, scratch);
+    }
+  }
+
+  // The centroid by coverage: a pixel across a block boundary counts for each block by the
+  // fraction of it on that block's side (from the bit that flips there), so the centroid is that
+  // of the block's footprint rather than of the whole pixels it won, which would be off by up to
+  // half a pixel with the phase of the block grid against the pixel grid. Pixels outside a
+  // block's spot count for it not at all.
+  const BoundaryBits along_u = boundary_bits(columns, column_bits, 2);
+  const BoundaryBits along_v = boundary_bits(rows, sequence.row_bits(), 2 + 2 * column_bits);
+  std::vector<float> inverse_contrast(count, 0.0f);
+  {
+    const std::uint8_t* white = grey[0].ptr<std::uint8_t>();
+    const std::uint8_t* black = grey[1].ptr<std::uint8_t>();
+    for (std::size_t i = 0; i < count; ++i) {
+      if (block_of[i] >= 0) inverse_contrast[i] = 1.0f / static_cast<float>(white[i] - black[i]);
+    }
+  }
+  // The share of pixel i on the far side of the boundary held in `frame` (-1: none).
+  const auto across = [&](std::size_t i, int frame, int sign) {
+    if (frame < 0) return 0.0f;
+    const int difference = grey[static_cast<std::size_t>(frame)].ptr<std::uint8_t>()[i] -
+                           grey[static_cast<std::size_t>(frame) + 1].ptr<std::uint8_t>()[i];
+    const float own = 0.5f * (1.0f + static_cast<float>(sign * difference) * inverse_contrast[i]);
+    return 1.0f - std::clamp(own, 0.0f, 1.0f);
+  };
+  const auto shares = [&](std::size_t i, const BoundaryBits& axis, int index) {
+    const auto k = static_cast<std::size_t>(index);
+    const float before = across(i, axis.frame_before[k], axis.sign_before[k]);
+    const float after = across(i, axis.frame_after[k], axis.sign_after[k]);
+    return std::array<float, 3>{before, std::max(0.0f, 1.0f - before - after), after};
+  };
+  std::vector<Eigen::Vector3d> sums(blocks, Eigen::Vector3d::Zero());  // weight, weight * (u, v)
   for (std::size_t b = 0; b < blocks; ++b) {
-    const int n = first[b + 1] - first[b];
-    if (n < min_pixels) continue;
-    pixels.assign(grouped.begin() + first[b], grouped.begin() + first[b + 1]);
+    if (!spots[b].found) continue;
+    const int column = static_cast<int>(b % columns), row = static_cast<int>(b / columns);
+    for (int slot = first[b]; slot < first[b + 1]; ++slot) {
+      const Eigen::Vector2f& p = grouped[static_cast<std::size_t>(slot)];
+      if (!spots[b].holds(p)) continue;
+      const auto i = static_cast<std::size_t>(grouped_index[static_cast<std::size_t>(slot)]);
+      const std::array<float, 3> wu = shares(i, along_u, column), wv = shares(i, along_v, row);
+      for (int dv = -1; dv <= 1; ++dv) {
+        for (int du = -1; du <= 1; ++du) {
+          const float w =
+              wu[static_cast<std::size_t>(du + 1)] * wv[static_cast<std::size_t>(dv + 1)];
+          if (w <= 0.0f) continue;
+          const std::size_t target = b + static_cast<std::size_t>(dv * columns + du);
+          if (!spots[target].found || !spots[target].holds(p)) continue;
+          sums[target] += Eigen::Vector3d(w, w * p.x(), w * p.y());
+        }
+      }
+    }
+  }
+
+  // A block cut short -- by the region's border, a shadow, the target's rim or the mask -- has
+  // the centroid of the part seen, not of the block's centre. Kept are the blocks inside the
+  // decoded area: clear of the region's border, with all four neighbours decoded beside them in
+  // the image (the neighbour beyond a target's rim is decoded too, but on the background,
+  // displaced by the parallax), and with a footprint close to those of the blocks around them,
+  // which change only slowly with the surface's slant.
+  std::vector<std::uint8_t> usable(blocks, 0);
+  for (std::size_t b = 0; b < blocks; ++b) {
+    usable[b] = spots[b].found && sums[b].x() > 0.0;
+    for (int slot = first[b]; slot < first[b + 1] && usable[b]; ++slot) {
+      const Eigen::Vector2f& p = grouped[static_cast<std::size_t>(slot)];
+      usable[b] = !(spots[b].holds(p) &&
+                    (p.x() <= roi.x || p.y() <= roi.y || p.x() >= roi.x + roi.width - 1 ||
+                     p.y() >= roi.y + roi.height - 1));
+    }
+  }
+  const auto centroid = [&sums](std::size_t b) -> Eigen::Vector2d {
+    return sums[b].tail<2>() / sums[b].x();
+  };
+  std::vector<double> around;
+  for (std::size_t b = 0; b < blocks; ++b) {
+    if (!usable[b]) continue;
+    const int column = static_cast<int>(b % columns), row = static_cast<int>(b / columns);
+    const Eigen::Vector2d at = centroid(b);
+    // Blocks tile the surface, so neighbours lie about one footprint's side apart.
+    const double reach = 2.0 * std::sqrt(sums[b].x()) + 1.0;
+    around.clear();
+    int sides = 0;
+    for (int dv = -1; dv <= 1; ++dv) {
+      for (int du = -1; du <= 1; ++du) {
+        const int c = column + du, r = row + dv;
+        if ((du == 0 && dv == 0) || c < 0 || r < 0 || c >= columns || r >= rows) continue;
+        const std::size_t n = static_cast<std::size_t>(r) * columns + c;
+        if (!spots[n].found || !(sums[n].x() > 0.0)) continue;
+        if ((centroid(n) - at).squaredNorm() > reach * reach) continue;
+        around.push_back(sums[n].x());
+        sides += du == 0 || dv == 0;
+      }
+    }
+    if (sides < 4) continue;
+    std::nth_element(around.begin(), around.begin() + around.size() / 2, around.end());
+    if (sums[b].x() < kMinFootprint * around[around.size() / 2]) continue;
     BlockCorrespondence block;
-    if (!block_centroid(pixels, min_pixels, block.colour_px, block.pixels)) continue;
-    block.column = static_cast<int>(b % columns);
-    block.row = static_cast<int>(b / columns);
-    block.projector_px = sequence.block_centre_px(block.column, block.row);
+    block.column = column;
+    block.row = row;
+    block.projector_px = sequence.block_centre_px(column, row);
+    block.colour_px = at;
+    block.pixels = spots[b].kept;
     result.blocks.push_back(block);
   }
   return result;

@@ -136,7 +136,7 @@ RegisteredDepth register_depth(const DepthFrame& depth, const Eigen::Vector3d& d
 }
 
 std::optional<Eigen::Vector3d> lift(const RegisteredDepth& depth, const Eigen::Vector2d& colour_px,
-                                    int window_px, double max_spread_m) {
+                                    int window_px, double max_spread_m, double max_view_angle_deg) {
   const PinholeModel& k = depth.colour;
   const std::size_t n = static_cast<std::size_t>(k.width) * k.height;
   if (depth.z_m.size() != n || depth.points_camera.size() != n) return std::nullopt;
@@ -230,6 +230,10 @@ std::optional<Eigen::Vector3d> lift(const RegisteredDepth& depth, const Eigen::V
   const Eigen::Vector2d offset = t * ray.head<2>() - centroid.head<2>();
   const Eigen::LDLT<Eigen::Matrix2d> spread(scatter);
   if (offset.dot(spread.solve(offset)) > kMaxSupport * kMaxSupport) return std::nullopt;
+  const double cos_view =
+      std::abs(plane.x() * ray.x() + plane.y() * ray.y() - 1.0) /
+      (std::sqrt(plane.x() * plane.x() + plane.y() * plane.y() + 1.0) * ray.norm());
+  if (cos_view < std::cos(max_view_angle_deg * 3.14159265358979 / 180.0)) return std::nullopt;
   return Eigen::Vector3d(t * ray);
 }
 

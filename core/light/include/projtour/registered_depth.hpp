@@ -36,6 +36,7 @@ RegisteredDepth register_depth(const DepthFrame& depth, const Eigen::Vector3d& d
 // the plane fitted to the registered depth within `window_px` of it; nullopt with too few
 // readings there or a fit whose spread is larger than `max_spread_m` (an edge, two surfaces).
 std::optional<Eigen::Vector3d> lift(const RegisteredDepth& depth, const Eigen::Vector2d& colour_px,
-                                    int window_px = 4, double max_spread_m = 0.02);
+                                    int window_px = 4, double max_spread_m = 0.02,
+                                    double max_view_angle_deg = 60.0);
 
 }  // namespace projtour::light
