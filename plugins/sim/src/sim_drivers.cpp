@@ -1,6 +1,10 @@
 // The simulated drivers over the shared world.
 #include "projtour_sim/sim_drivers.hpp"
 
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
 namespace projtour::sim {
 
 SimBase::SimBase(const Params& params, const RunContext& run) : world_(SimWorld::attach(run)) {
@@ -42,6 +46,25 @@ SimDepthCamera::SimDepthCamera(const Params& params, const RunContext& run)
   if (params.has("max_incidence_deg")) {
     world_->set_max_incidence_deg(params.number("max_incidence_deg"));
   }
+}
+
+SimColourCamera::SimColourCamera(const Params& params, const RunContext& run)
+    : world_(SimWorld::attach(run)) {
+  ColourLight light;
+  const auto read = [&](const char* key, double& out) {
+    if (!params.has(key)) return;
+    const double v = params.number(key);
+    if (!(v >= 0.0) || !std::isfinite(v)) {
+      throw std::invalid_argument(std::string("sim_colour_camera: ") + key + " must be >= 0, got " +
+                                  std::to_string(v));
+    }
+    out = v;
+  };
+  read("room_lux", light.room_lux);
+  read("lamp_lumens", light.lamp_lumens);
+  read("noise", light.noise);
+  read("blur_px", light.blur_px);
+  world_->set_colour_light(light);
 }
 
 SimProjector::SimProjector(const Params& params, const RunContext& run)

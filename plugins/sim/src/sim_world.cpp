@@ -13,13 +13,17 @@
 #include <map>
 #include <mutex>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <random>
+#include <sstream>
 
 #include "projtour/geometry.hpp"
 #include "projtour/kinematics.hpp"
 #include "projtour/model.hpp"
 #include "projtour/occupancy_map.hpp"
+#include "projtour_sim/colour_renderer.hpp"
 #include "projtour_sim/depth_renderer.hpp"
 #include "projtour_sim/kinect_noise.hpp"
 #include "sim_internal.hpp"
@@ -34,7 +38,19 @@ constexpr int kObstacleId = 2;
 constexpr int kFirstTargetId = 10;
 
 // Independent random streams, so e.g. grabbing one more frame does not change the laser noise.
-enum class Stream : std::uint64_t { setup = 1, odometry, laser, encoder, depth, faults };
+// New streams go at the end: the others' seeds, and so every existing run, stay as they were.
+enum class Stream : std::uint64_t { setup = 1, odometry, laser, encoder, depth, faults, colour };
+
+// What the colour camera sees each kind of object as (linear B, G, R reflectance): white-ish
+// targets that take the content well, mid-grey walls and obstacles, a dark brownish floor.
+constexpr Albedo kTargetAlbedo{0.8f, 0.8f, 0.8f};
+constexpr Albedo kWallAlbedo{0.5f, 0.5f, 0.5f};
+constexpr Albedo kObstacleAlbedo{0.4f, 0.42f, 0.45f};
+constexpr Albedo kFloorAlbedo{0.14f, 0.18f, 0.22f};
+
+// The pole fault's shape: a 16-sided prism is round to within 2 % of its diameter.
+constexpr int kPoleSides = 16;
+constexpr double kPoleHeight_m = 2.0;
 
 std::uint64_t splitmix64(std::uint64_t x) {
   x += 0x9E3779B97F4A7C15ull;
@@ -111,6 +127,30 @@ TriangleMesh perturbed_mesh(const TriangleMesh& mesh, double rms_m, std::mt19937
   return out;
 }
 
+// A vertical prism around the z axis from z = 0 up to height_m, its corners on the circle of
+// radius_m.
+TriangleMesh prism_mesh(double radius_m, double height_m, int sides) {
+  TriangleMesh mesh;
+  for (int k = 0; k < sides; ++k) {
+    const double a = 2.0 * kPi * k / sides;
+    const float x = static_cast<float>(radius_m * std::cos(a));
+    const float y = static_cast<float>(radius_m * std::sin(a));
+    mesh.vertices.emplace_back(x, y, 0.0f);
+    mesh.vertices.emplace_back(x, y, static_cast<float>(height_m));
+  }
+  const int bottom = 2 * sides, top = 2 * sides + 1;
+  mesh.vertices.emplace_back(0.0f, 0.0f, 0.0f);
+  mesh.vertices.emplace_back(0.0f, 0.0f, static_cast<float>(height_m));
+  for (int k = 0; k < sides; ++k) {
+    const int j = (k + 1) % sides;
+    mesh.triangles.emplace_back(2 * k, 2 * j, 2 * j + 1);
+    mesh.triangles.emplace_back(2 * k, 2 * j + 1, 2 * k + 1);
+    mesh.triangles.emplace_back(bottom, 2 * j, 2 * k);
+    mesh.triangles.emplace_back(top, 2 * k + 1, 2 * j + 1);
+  }
+  return mesh;
+}
+
 }  // namespace
 
 struct SimWorld::Impl {
@@ -134,6 +174,14 @@ struct SimWorld::Impl {
     bool kidnapped = false;
     std::optional<double> first_shown_s;  // the projector first lit while this target was active
     bool nudged = false;
+    int colour_frames_here = 0;
+    // The last frame shown while this target was active, for the referee's pictures. Only the
+    // target lit last keeps it raw; the others' are PNG-packed (a long day has hundreds).
+    cv::Mat last_frame;
+    std::vector<std::uint8_t> last_frame_png;
+    Eigen::Isometry3d T_map_camera_shown = Eigen::Isometry3d::Identity();
+    Eigen::Isometry3d T_map_projector_shown = Eigen::Isometry3d::Identity();
+    std::optional<double> last_shown_s;
   };
   struct Box2 {
     Eigen::Vector2d lo, hi;
@@ -151,14 +199,15 @@ struct SimWorld::Impl {
   // The referee's scene of one object alone, built when a truth query needs it: only the
   // object being projected on is ever asked about, so one is kept.
   mutable std::optional<std::pair<std::size_t, Scene>> alone_cache;
-  std::vector<Box2> obstacles;  // blocked_path boxes, for the bumper
+  std::vector<Box2> obstacles;  // blocked_path boxes and poles, for the bumper
   SceneBuilder fixed_parts;     // floor, walls and obstacles: all the scene but the targets
   Scene scene;
+  std::uint64_t scene_version = 0;  // counts rebuilds: the colour camera keeps geometry per scene
   std::unique_ptr<DepthRenderer> depth_renderer;
   KinectNoiseParams kinect;
   std::unique_ptr<HeadKinematics> head_true;
 
-  std::mt19937_64 rng_odometry, rng_laser, rng_encoder, rng_depth, rng_faults;
+  std::mt19937_64 rng_odometry, rng_laser, rng_encoder, rng_depth, rng_faults, rng_colour;
 
   double t_s = 0.0;
   bool started = false;
@@ -189,8 +238,19 @@ struct SimWorld::Impl {
   std::uint64_t frame_sequence = 0;
   IdealDepth ideal;
 
+  // Colour camera. Its renderer is made on first use: most runs never grab a colour frame.
+  double next_colour_frame_s = 0.0;
+  std::optional<double> colour_frame_due_s;
+  std::uint64_t colour_sequence = 0;
+  double colour_exposure_ms = 0.0;  // 0 = automatic
+  ColourLight colour_light;
+  mutable std::unique_ptr<ColourRenderer> colour_renderer;
+  cv::Mat colour_radiance;
+
   // Projector.
   bool lit = false;
+  cv::Mat shown;                        // 8-bit BGR: what the projector shows while lit
+  std::optional<std::size_t> last_lit;  // the target whose last_frame is raw
   std::vector<ProjectorEvent> projector_log;
   double lit_moving_s = 0.0;
   std::ofstream projector_jsonl;
@@ -386,6 +446,72 @@ struct SimWorld::Impl {
       if (!o.missing) builder.add_mesh(*o.mesh, o.T_map_model, o.object_id);
     }
     scene = builder.build();
+    ++scene_version;
+  }
+
+  ColourRenderer& colour() const {
+    if (!colour_renderer) {
+      colour_renderer = std::make_unique<ColourRenderer>(mission->robot.camera.colour.intrinsics,
+                                                         mission->robot.projector.intrinsics);
+      colour_renderer->set_light(colour_light);
+      colour_renderer->set_default_albedo(kTargetAlbedo);  // every target id
+      colour_renderer->set_albedo(kFloorId, kFloorAlbedo);
+      colour_renderer->set_albedo(kWallId, kWallAlbedo);
+      colour_renderer->set_albedo(kObstacleId, kObstacleAlbedo);
+    }
+    return *colour_renderer;
+  }
+
+  double max_colour_exposure_ms() const {
+    return 1000.0 / std::max(mission->robot.camera.colour.rate_hz, 1e-9);
+  }
+
+  // The target's last frame, raw again if it was packed; empty when nothing was shown.
+  cv::Mat last_frame(const Target& t) const {
+    if (!t.last_frame.empty() || t.last_frame_png.empty()) return t.last_frame;
+    return cv::imdecode(t.last_frame_png, cv::IMREAD_COLOR);
+  }
+
+  // The colour camera's view of the target with what was last shown on it, from where the robot
+  // stood then, noise-free (the pictures are the same in every run of a seed).
+  cv::Mat colour_panel(const Target& t,
+                       const std::optional<std::array<Eigen::Vector2d, 4>>& observed_px) const {
+    const cv::Mat frame = last_frame(t);
+    const bool shown = !frame.empty() && t.last_shown_s;
+    const Eigen::Isometry3d T_map_camera =
+        shown ? t.T_map_camera_shown : T_map_base() * head_true->T_base_camera(q_true);
+    const Eigen::Isometry3d T_map_projector =
+        shown ? t.T_map_projector_shown : T_map_base() * head_true->T_base_projector(q_true);
+    ColourRenderer& renderer = colour();
+    cv::Mat radiance;
+    renderer.render(scene, scene_version, T_map_camera, T_map_projector, shown ? &frame : nullptr,
+                    radiance);
+    const double max_ms = max_colour_exposure_ms();
+    const double fixed_ms = mission->robot.structured_light.exposure_ms;
+    const double exposure_ms = fixed_ms > 0.0 ? std::min(fixed_ms, max_ms)
+                                              : renderer.auto_exposure_ms(radiance, 0.1, max_ms);
+    const ColourFrame image = renderer.expose(radiance, exposure_ms, nullptr);
+    std::array<Eigen::Vector3d, 4> model_points_map;
+    for (int i = 0; i < 4; ++i) {
+      model_points_map[i] = object(t).T_map_model * t.spec->model_points[i];
+    }
+    std::ostringstream caption;
+    caption.precision(1);
+    caption << std::fixed;
+    if (shown) {
+      caption << "colour camera: as last shown, t = " << *t.last_shown_s << " s, " << exposure_ms
+              << " ms";
+    } else {
+      caption << "colour camera: nothing shown on this target";
+    }
+    return colour_view_panel(image, T_map_camera, model_points_map, observed_px, caption.str());
+  }
+
+  void pack_last_frame(Target& t) {
+    if (t.last_frame.empty()) return;
+    // Fast, lossless compression: warped content is mostly black.
+    cv::imencode(".png", t.last_frame, t.last_frame_png, {cv::IMWRITE_PNG_COMPRESSION, 1});
+    t.last_frame.release();
   }
 
   void nudge_if_due() {
@@ -471,6 +597,7 @@ SimWorld::SimWorld(const RunContext& run) : impl_(std::make_unique<Impl>()) {
   w.rng_encoder = stream(w.seed, Stream::encoder);
   w.rng_depth = stream(w.seed, Stream::depth);
   w.rng_faults = stream(w.seed, Stream::faults);
+  w.rng_colour = stream(w.seed, Stream::colour);
 
   // Odometry: a per-run scale error between half and all of the configured fraction.
   w.odometry_trans_bias = w.world.odometry_trans_noise_frac * uniform(setup, 0.5, 1.0) *
@@ -585,6 +712,46 @@ SimWorld::SimWorld(const RunContext& run) : impl_(std::make_unique<Impl>()) {
         }
       }
     }
+    if (const FaultSpec* f = w.fault(spec.id, "pole")) {
+      // Standing between the target and its stand-off pose: it takes the projector's light
+      // meant for the target (and a shadow across it), and the depth camera sees it.
+      const Eigen::Vector3d c = T_map_model.translation();
+      Eigen::Vector2d dir(t.standoff.x_m - c.x(), t.standoff.y_m - c.y());
+      dir = dir.norm() > 1e-9 ? dir.normalized() : Eigen::Vector2d::UnitX();
+      const Eigen::Vector2d left(-dir.y(), dir.x());  // seen from the target, facing the robot
+      const Eigen::Vector2d at = Eigen::Vector2d(c.x(), c.y()) +
+                                 fault_value(*f, "distance_m", 0.6) * dir +
+                                 fault_value(*f, "offset_m", 0.0) * left;
+      const double radius_m = 0.5 * fault_value(*f, "diameter_m", 0.05);
+      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+      T.translation() = Eigen::Vector3d(at.x(), at.y(), 0.0);
+      builder.add_mesh(prism_mesh(radius_m, kPoleHeight_m, kPoleSides), T, kObstacleId);
+      // An obstacle for the bumper and the laser too, unless it stands where the robot must:
+      // then it would be a blocked path, which is another fault's test.
+      const double clearance_m = (at - Eigen::Vector2d(t.standoff.x_m, t.standoff.y_m)).norm();
+      if (clearance_m > robot.base.radius_m + radius_m) {
+        w.obstacles.push_back(
+            {at - Eigen::Vector2d::Constant(radius_m), at + Eigen::Vector2d::Constant(radius_m)});
+        if (w.grid) {
+          // Every cell the pole's disc reaches (a 5 cm pole is at least the cell it stands in).
+          const double res = w.grid->getResolution();
+          const int i0 = w.grid->x2idx(at.x() - radius_m - res);
+          const int i1 = w.grid->x2idx(at.x() + radius_m + res);
+          const int j0 = w.grid->y2idx(at.y() - radius_m - res);
+          const int j1 = w.grid->y2idx(at.y() + radius_m + res);
+          for (int j = std::max(j0, 0); j <= std::min(j1, static_cast<int>(w.grid->getSizeY()) - 1);
+               ++j) {
+            for (int i = std::max(i0, 0);
+                 i <= std::min(i1, static_cast<int>(w.grid->getSizeX()) - 1); ++i) {
+              if (std::hypot(w.grid->idx2x(i) - at.x(), w.grid->idx2y(j) - at.y()) <=
+                  radius_m + 0.5 * res) {
+                w.grid->setCell(i, j, 0.0f);
+              }
+            }
+          }
+        }
+      }
+    }
     w.targets.push_back(std::move(t));
   }
   w.rebuild_scene();
@@ -641,6 +808,11 @@ void SimWorld::advance(double t_s) {
     w.frame_due_s = t_s;
     w.next_frame_s =
         (std::floor(t_s * camera.rate_hz + 1e-6) + 1.0) / std::max(camera.rate_hz, 1e-9);
+  }
+  const double colour_hz = camera.colour.rate_hz;
+  if (t_s + 1e-9 >= w.next_colour_frame_s) {
+    w.colour_frame_due_s = t_s;
+    w.next_colour_frame_s = (std::floor(t_s * colour_hz + 1e-6) + 1.0) / std::max(colour_hz, 1e-9);
   }
 }
 
@@ -758,6 +930,48 @@ std::optional<DepthFrame> SimWorld::grab() {
   return frame;
 }
 
+void SimWorld::set_colour_light(const ColourLight& light) {
+  impl_->colour_light = light;
+  if (impl_->colour_renderer) impl_->colour_renderer->set_light(light);
+}
+
+void SimWorld::set_colour_exposure_ms(double exposure_ms) {
+  if (!(exposure_ms >= 0.0) || !std::isfinite(exposure_ms)) {
+    throw std::invalid_argument(
+        "simulated colour camera: exposure must be >= 0 ms (0 = automatic)");
+  }
+  impl_->colour_exposure_ms = exposure_ms;
+}
+
+std::optional<ColourFrame> SimWorld::grab_colour() {
+  Impl& w = *impl_;
+  Impl::Target* here = w.active();
+  if (here != nullptr) {
+    // One device: the Kinect's colour stream goes with its depth stream, each after as many of
+    // its own frames.
+    if (const FaultSpec* f = w.fault(here->spec->id, "camera_disconnect")) {
+      if (here->colour_frames_here >= static_cast<int>(fault_value(*f, "after_frames", 0.0))) {
+        throw DriverError("simulated colour camera: device disconnected");
+      }
+    }
+  }
+  if (!w.colour_frame_due_s) return std::nullopt;
+  const double t_frame = *w.colour_frame_due_s;
+  w.colour_frame_due_s.reset();
+  if (here != nullptr) ++here->colour_frames_here;
+  ColourRenderer& renderer = w.colour();
+  renderer.render(w.scene, w.scene_version, true_T_map_camera(), true_T_map_projector(),
+                  w.lit ? &w.shown : nullptr, w.colour_radiance);
+  const double max_ms = w.max_colour_exposure_ms();
+  const double exposure_ms = w.colour_exposure_ms > 0.0
+                                 ? std::min(w.colour_exposure_ms, max_ms)
+                                 : renderer.auto_exposure_ms(w.colour_radiance, 0.1, max_ms);
+  ColourFrame frame = renderer.expose(w.colour_radiance, exposure_ms, &w.rng_colour);
+  frame.t_s = t_frame;
+  frame.sequence = ++w.colour_sequence;
+  return frame;
+}
+
 void SimWorld::show(const cv::Mat& frame_bgr) {
   Impl& w = *impl_;
   const PinholeModel& k = w.mission->robot.projector.intrinsics;
@@ -766,7 +980,14 @@ void SimWorld::show(const cv::Mat& frame_bgr) {
                                 "x" + std::to_string(frame_bgr.rows) + ", the projector " +
                                 std::to_string(k.width) + "x" + std::to_string(k.height));
   }
-  if (Impl::Target* here = w.active()) {
+  const int type = frame_bgr.type();
+  if (type != CV_8UC3 && type != CV_8UC1 && type != CV_8UC4) {
+    throw std::invalid_argument(
+        "simulated projector: frames are 8-bit BGR (or grey, or BGRA), got OpenCV type " +
+        std::to_string(type));
+  }
+  Impl::Target* here = w.active();
+  if (here != nullptr) {
     if (const FaultSpec* f = w.fault(here->spec->id, "projector_failure")) {
       if (here->shows_here >= static_cast<int>(fault_value(*f, "after_shows", 0.0))) {
         throw DriverError("simulated projector: lamp failure");
@@ -774,6 +995,22 @@ void SimWorld::show(const cv::Mat& frame_bgr) {
     }
     ++here->shows_here;
     if (!here->first_shown_s) here->first_shown_s = w.t_s;
+  }
+  // A copy: the caller may draw the next frame into the same buffer.
+  if (type == CV_8UC3) {
+    frame_bgr.copyTo(w.shown);
+  } else {
+    cv::cvtColor(frame_bgr, w.shown, type == CV_8UC1 ? cv::COLOR_GRAY2BGR : cv::COLOR_BGRA2BGR);
+  }
+  if (here != nullptr) {
+    const auto index = static_cast<std::size_t>(here - w.targets.data());
+    if (w.last_lit && *w.last_lit != index) w.pack_last_frame(w.targets[*w.last_lit]);
+    w.last_lit = index;
+    w.shown.copyTo(here->last_frame);
+    here->last_frame_png.clear();
+    here->T_map_camera_shown = true_T_map_camera();
+    here->T_map_projector_shown = true_T_map_projector();
+    here->last_shown_s = w.t_s;
   }
   w.lit = true;
   w.log_projector(true);
@@ -839,6 +1076,13 @@ std::optional<ProjectionTruth> SimWorld::evaluate_projection(
     out.error_mm[i] = 1000.0 * (truth.landed_map[i] - truth.model_points_map[i]).norm();
     out.error_px[i] = truth.error_px[i];
   }
+  const Impl::Object& object = impl_->object(*t);
+  const AreaFigures area = area_figures(*t->spec, object.T_map_model, impl_->alone(*t),
+                                        impl_->scene, object.object_id, true_T_map_projector(),
+                                        impl_->mission->robot.projector.intrinsics, projector_px);
+  out.area_error_mean_mm = area.error_mean_mm;
+  out.area_error_max_mm = area.error_max_mm;
+  out.light_off_target_fraction = area.light_off_target_fraction;
   return out;
 }
 
@@ -848,26 +1092,27 @@ void SimWorld::set_visited_target(const std::string& target_id) {
   if (t != nullptr) impl_->visited = static_cast<std::size_t>(t - impl_->targets.data());
 }
 
-void SimWorld::write_projection_views(const std::string& target_id,
-                                      const std::array<Eigen::Vector2d, 4>& pixels_before_align,
-                                      const std::array<Eigen::Vector2d, 4>& pixels_after_align,
-                                      const std::optional<std::array<Eigen::Vector2d, 4>>&,
-                                      const std::filesystem::path& dir) const {
+void SimWorld::write_projection_views(
+    const std::string& target_id, const std::array<Eigen::Vector2d, 4>& pixels_before_align,
+    const std::array<Eigen::Vector2d, 4>& pixels_after_align,
+    const std::optional<std::array<Eigen::Vector2d, 4>>& observed_colour_px,
+    const std::filesystem::path& dir) const {
   const Impl::Target* t = impl_->target(target_id);
   if (t == nullptr) throw std::out_of_range("simulated world: no target '" + target_id + "'");
   const Eigen::Isometry3d T_map_projector = true_T_map_projector();
   const PinholeModel& k = impl_->mission->robot.projector.intrinsics;
   const Eigen::Isometry3d& T_map_model = impl_->object(*t).T_map_model;
   const Scene& alone = impl_->alone(*t);
+  const cv::Mat colour_view = impl_->colour_panel(*t, observed_colour_px);
   std::filesystem::create_directories(dir);
   write_projection_view(
       alone, T_map_model,
       true_projection(*t->spec, T_map_model, alone, T_map_projector, k, pixels_before_align),
-      "before alignment", dir / "before.png");
+      "before alignment", colour_view, dir / "before.png");
   write_projection_view(
       alone, T_map_model,
       true_projection(*t->spec, T_map_model, alone, T_map_projector, k, pixels_after_align),
-      "after alignment", dir / "after.png");
+      "after alignment", colour_view, dir / "after.png");
 }
 
 }  // namespace projtour::sim

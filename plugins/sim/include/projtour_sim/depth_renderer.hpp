@@ -135,6 +135,8 @@ class DepthRenderer {
  public:
   explicit DepthRenderer(const PinholeModel& intrinsics);
   const PinholeModel& intrinsics() const { return intrinsics_; }
+  // Per pixel (row-major), the optical-frame ray with z = 1: a hit at depth z lies at ray * z.
+  const std::vector<Eigen::Vector3f>& rays() const { return rays_; }
 
   // T_world_camera is the OPTICAL frame (z forward, x right, y down). Surfaces deeper than
   // max_depth_m are not looked for (a cheap cut-off: the Kinect sees nothing past 4 m anyway).

@@ -64,6 +64,20 @@ class SimDepthCamera : public DepthCameraDriver {
   std::shared_ptr<SimWorld> world_;
 };
 
+class SimColourCamera : public ColourCameraDriver {
+ public:
+  // params: room_lux, lamp_lumens, noise, blur_px (numbers >= 0; see ColourLight).
+  SimColourCamera(const Params& params, const RunContext& run);
+  void update(double t_s) override { world_->advance(t_s); }
+  void safe_stop() override {}
+  GroundTruth* ground_truth() override { return world_.get(); }
+  std::optional<ColourFrame> grab() override { return world_->grab_colour(); }
+  void set_exposure_ms(double exposure_ms) override { world_->set_colour_exposure_ms(exposure_ms); }
+
+ private:
+  std::shared_ptr<SimWorld> world_;
+};
+
 class SimProjector : public ProjectorDriver {
  public:
   SimProjector(const Params& params, const RunContext& run);

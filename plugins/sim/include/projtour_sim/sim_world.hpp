@@ -35,6 +35,7 @@
 #include "projtour/ground_truth.hpp"
 #include "projtour/model.hpp"
 #include "projtour/world.hpp"
+#include "projtour_sim/colour_renderer.hpp"
 
 namespace cv {
 class Mat;
@@ -85,6 +86,14 @@ class SimWorld : public GroundTruth {
   // Depth camera.
   void set_max_incidence_deg(double deg);
   std::optional<DepthFrame> grab();
+
+  // Colour camera: renders the scene from the true colour pose with the robot's colour
+  // intrinsics, under room light and the true projector's light (see colour_renderer.hpp),
+  // at camera.colour.rate_hz. Noise from a stream of its own. Starts in automatic exposure.
+  void set_colour_light(const ColourLight& light);
+  // 0 = automatic; longer than a frame period is cut to it. Throws std::invalid_argument < 0.
+  void set_colour_exposure_ms(double exposure_ms);
+  std::optional<ColourFrame> grab_colour();
 
   // Projector. Events also go, one JSON object a line, to the log file once one is set.
   void set_projector_log_file(const std::filesystem::path& file);
