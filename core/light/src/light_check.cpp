@@ -5,16 +5,21 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
 namespace projtour::light {
 
 namespace {
 
-// cv::COLOR_BGR2GRAY's weights in the same 14-bit fixed point, so these grey levels are the
-// ones decode() thresholds.
-int grey(const std::uint8_t* bgr) {
-  return (bgr[0] * 1868 + bgr[1] * 9617 + bgr[2] * 4899 + (1 << 13)) >> 14;
+// Grey levels of a frame's region by cv::cvtColor, as decode() takes them, so a threshold in
+// grey levels means the same in both (OpenCV's vectorised rounding differs from the textbook
+// fixed-point formula on a few pixels).
+cv::Mat grey_of(const ColourFrame& f, const cv::Rect& region) {
+  const cv::Mat bgr(f.height, f.width, CV_8UC3, const_cast<std::uint8_t*>(f.bgr.data()));
+  cv::Mat grey;
+  cv::cvtColor(bgr(region), grey, cv::COLOR_BGR2GRAY);
+  return grey;
 }
 
 void check_pair(const ColourFrame& dark, const ColourFrame& lit, const char* who) {
@@ -40,13 +45,18 @@ Centroid added_centroid(const ColourFrame& dark, const ColourFrame& lit, const E
   const int u1 = std::min(dark.width - 1, static_cast<int>(std::ceil(at.x() + radius)));
   const int v0 = std::max(0, static_cast<int>(std::floor(at.y() - radius)));
   const int v1 = std::min(dark.height - 1, static_cast<int>(std::ceil(at.y() + radius)));
+  if (u0 > u1 || v0 > v1) return c;
+  const cv::Rect window(u0, v0, u1 - u0 + 1, v1 - v0 + 1);
+  const cv::Mat dark_grey = grey_of(dark, window), lit_grey = grey_of(lit, window);
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-  for (int v = v0; v <= v1; ++v) {
-    for (int u = u0; u <= u1; ++u) {
-      const int added = grey(lit.pixel(u, v)) - grey(dark.pixel(u, v));
+  for (int y = 0; y < window.height; ++y) {
+    const std::uint8_t* d = dark_grey.ptr<std::uint8_t>(y);
+    const std::uint8_t* l = lit_grey.ptr<std::uint8_t>(y);
+    for (int x = 0; x < window.width; ++x) {
+      const int added = l[x] - d[x];
       if (added <= min_added_level) continue;
       const double w = added - min_added_level;
-      sum += w * Eigen::Vector2d(u, v);
+      sum += w * Eigen::Vector2d(u0 + x, v0 + y);
       c.weight += w;
       ++c.pixels;
     }
@@ -153,10 +163,14 @@ LightOnTarget light_on_target(const ColourFrame& dark, const ColourFrame& lit,
     if (z > 0.0f && (nearest_model == 0.0f || z < nearest_model)) nearest_model = z;
   }
   const float tolerance = static_cast<float>(tolerance_m);
+  const cv::Rect whole(0, 0, dark.width, dark.height);
+  const cv::Mat dark_grey = grey_of(dark, whole), lit_grey = grey_of(lit, whole);
+  const std::uint8_t* dark_level = dark_grey.ptr<std::uint8_t>();
+  const std::uint8_t* lit_level = lit_grey.ptr<std::uint8_t>();
   LightOnTarget out;
   double total = 0.0, on = 0.0, in_front = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
-    const int added = grey(&lit.bgr[3 * i]) - grey(&dark.bgr[3 * i]);
+    const int added = lit_level[i] - dark_level[i];
     if (added <= min_added_level) continue;
     ++out.lit_pixels;
     const double w = added;

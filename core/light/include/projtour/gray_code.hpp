@@ -57,7 +57,7 @@ struct BlockCorrespondence {
   int column = 0, row = 0;
   Eigen::Vector2d projector_px = Eigen::Vector2d::Zero();  // the block's centre
   Eigen::Vector2d colour_px = Eigen::Vector2d::Zero();     // distorted colour pixel (centroid)
-  int pixels = 0;
+  int pixels = 0;                                          // that decoded to it, in its spot
 };
 
 struct DecodeResult {
@@ -68,7 +68,16 @@ struct DecodeResult {
 };
 
 // `frames` are the colour frames captured under frames 0..size()-1, in order. Only colour
-// pixels inside `roi` (empty = the whole image) are decoded.
+// pixels inside `roi` (empty = the whole image) are decoded, in grey levels: a pixel decodes
+// when white - black exceeds min_contrast and every bit's pattern and inverse differ by at least
+// min_bit_contrast, to a block inside the grid. A block needs min_pixels_per_block of them in
+// one compact spot (pixels decoded far from the others' median are dropped; a block without a
+// majority in one spot is dropped). Its colour_px is the centroid of its footprint: a pixel
+// across a block boundary counts for each side by its share there (from the bit that flips at
+// that boundary), so the centroid is sub-pixel, not that of whole pixels. Only whole blocks are
+// returned -- clear of the roi's border, with all four neighbours decoded next to them in the
+// image, and a footprint at least 85% of their neighbours' -- since a block cut by a shadow, the
+// target's rim or the roi has the centroid of its visible part. Deterministic.
 DecodeResult decode(const GrayCodeSequence& sequence, const std::vector<ColourFrame>& frames,
                     const cv::Rect& roi = cv::Rect());
 

@@ -33,8 +33,13 @@ RegisteredDepth register_depth(const DepthFrame& depth, const Eigen::Vector3d& d
                                const PinholeModel& colour);
 
 // The 3-D point (camera frame) where the colour ray through `colour_px` (distorted pixel) meets
-// the plane fitted to the registered depth within `window_px` of it; nullopt with too few
-// readings there or a fit whose spread is larger than `max_spread_m` (an edge, two surfaces).
+// the plane fitted to the registered depth within `window_px` of it. Readings farther than
+// `max_spread_m` from the depth next to the pixel are another surface and left out. nullopt with
+// too few readings there (or none next to the pixel: what it sees is unknown), a fit whose
+// spread is larger than `max_spread_m` (an edge, two surfaces), a plane that would have to be
+// extrapolated to the ray (its readings all to one side), or one seen at more than
+// `max_view_angle_deg` from head-on, where the Kinect's depth and a block's footprint both
+// degrade.
 std::optional<Eigen::Vector3d> lift(const RegisteredDepth& depth, const Eigen::Vector2d& colour_px,
                                     int window_px = 4, double max_spread_m = 0.02,
                                     double max_view_angle_deg = 60.0);
