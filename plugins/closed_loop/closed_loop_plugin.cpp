@@ -55,7 +55,9 @@ const projtour_param_desc kVerifyParams[] = {
     {"edge_margin_px", "number", "8",
      "a Model Point this close to the projector image's edge means off_screen (re-aim)"},
     {"dot_radius_px", "integer", "10", "radius of the dot shown on each Model Point's pixel"},
-    {"search_px", "number", "40", "each dot is looked for this far around its expected pixel"},
+    {"search_px", "number", "40",
+     "each dot is looked for this far around its expected pixel (at most 0.45 of the distance "
+     "between two expected dots)"},
     {"min_on_target", "number", "0.95",
      "share of the content area's light that must land on the target"},
     {"tolerance_mm", "number", "-1",

@@ -24,11 +24,13 @@ TargetViewOrOutcome look_at_target(Context& ctx, double edge_margin_px) {
   if (!d.colour_camera) return fail("no colour camera driver (the closed loop needs one)");
   const AlignResult* aligned = ctx.blackboard().find(keys::kAlign);
   if (aligned == nullptr || !aligned->T_camera_model || !aligned->model) {
-    return fail(std::string("no aligned pose and model on the blackboard (") + keys::kAlign.name + ")");
+    return fail(std::string("no aligned pose and model on the blackboard (") + keys::kAlign.name +
+                ")");
   }
   const CapturedFrame* capture = ctx.blackboard().find(keys::kCapture);
   if (capture == nullptr) {
-    return fail(std::string("no captured depth frame on the blackboard (") + keys::kCapture.name + ")");
+    return fail(std::string("no captured depth frame on the blackboard (") + keys::kCapture.name +
+                ")");
   }
   TargetView v;
   v.T_camera_model = *aligned->T_camera_model;

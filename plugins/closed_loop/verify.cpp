@@ -152,7 +152,16 @@ Outcome Verify::measure(Context& ctx) {
       dark, area, depth, light::model_depth(*view_->model, view_->T_camera_model, colour));
   result_.light_on_target_fraction = light.on_target_fraction;
 
-  const auto found = light::find_dots(dark, dots, result_.expected_colour_px, settings_->search_px);
+  // On a small target the four dots lie closer than search_px: each window must hold one dot
+  // only, or the centroid of two is reported as each.
+  double search_px = settings_->search_px;
+  for (int i = 0; i < 4; ++i) {
+    for (int j = i + 1; j < 4; ++j) {
+      search_px = std::min(
+          search_px, 0.45 * (result_.expected_colour_px[i] - result_.expected_colour_px[j]).norm());
+    }
+  }
+  const auto found = light::find_dots(dark, dots, result_.expected_colour_px, search_px);
   std::array<Eigen::Vector2d, 4> observed{};
   int seen = 0;
   double sum_mm = 0.0;

@@ -28,6 +28,10 @@ Eigen::Isometry3d rot_y(double angle_rad) {
 constexpr double kAxisTolerance = 1e-9;
 // A pan-link projector has one degree of freedom: accept a point this close to its axis.
 constexpr double kPanOnlyTolerance_m = 1e-5;
+// A measured mount (the calibrate step's) leaves the optical axis a fraction of a degree off
+// perpendicular to the tilt axis; up to about 3 degrees the nearest exact geometry's closed form
+// is a starting point Newton's method finishes from.
+constexpr double kMeasuredAxisTolerance = 0.05;
 
 std::string fmt_deg(double rad) {
   std::ostringstream s;
@@ -106,6 +110,48 @@ HeadKinematics believed_kinematics(const RobotSpec& robot,
   return HeadKinematics(
       robot.pan_tilt, robot.camera.mount,
       calibration != nullptr ? calibration->projector_mount : robot.projector.mount);
+}
+
+// The closed form for the mount turned the least to make its optical axis perpendicular to the
+// tilt axis, then Newton on the real mount: the point's ideal projector coordinates (x/z, y/z)
+// driven to zero over (pan, tilt), numeric Jacobian.
+std::optional<JointAngles> HeadKinematics::aim_measured_mount(const Eigen::Vector3d& p_base,
+                                                              std::string* why) const {
+  MountSpec exact = projector_mount_;
+  const Eigen::Vector3d d = exact.T_link_body.linear().col(0).normalized();
+  const Eigen::Vector3d d_exact = Eigen::Vector3d(d.x(), 0.0, d.z()).normalized();
+  exact.T_link_body.linear() = Eigen::Quaterniond::FromTwoVectors(d, d_exact).toRotationMatrix() *
+                               exact.T_link_body.linear();
+  const HeadKinematics nearest(pan_tilt_, camera_mount_, exact);
+  std::optional<JointAngles> q = nearest.aim_projector_at(p_base, why);
+  if (!q) return q;
+  const auto miss = [&](const JointAngles& a) {
+    const Eigen::Vector3d p = T_base_projector(a).inverse() * p_base;
+    return Eigen::Vector2d(p.x() / p.z(), p.y() / p.z());
+  };
+  constexpr double kStep_rad = 1e-6;
+  for (int iteration = 0; iteration < 8; ++iteration) {
+    const Eigen::Vector2d f = miss(*q);
+    if (f.norm() < 1e-10) break;
+    Eigen::Matrix2d J;
+    J.col(0) = (miss({q->pan_rad + kStep_rad, q->tilt_rad}) - f) / kStep_rad;
+    J.col(1) = (miss({q->pan_rad, q->tilt_rad + kStep_rad}) - f) / kStep_rad;
+    const Eigen::Vector2d step = J.fullPivLu().solve(-f);
+    q->pan_rad += step.x();
+    q->tilt_rad += step.y();
+  }
+  if (miss(*q).norm() > 1e-6) {
+    if (why != nullptr) *why = "the measured projector mount's aim did not converge";
+    return std::nullopt;
+  }
+  if (!within_limits(*q)) {
+    if (why != nullptr) {
+      *why = "needs pan " + fmt_deg(q->pan_rad) + " deg, tilt " + fmt_deg(q->tilt_rad) +
+             " deg: outside the joint limits";
+    }
+    return std::nullopt;
+  }
+  return q;
 }
 
 bool HeadKinematics::within_limits(const JointAngles& q) const {
@@ -197,6 +243,7 @@ std::optional<JointAngles> HeadKinematics::aim_projector_at(const Eigen::Vector3
       return fail("tilt axis not perpendicular to the pan axis (closed form needs them so)");
     }
     if (std::abs(d_link.y()) > kAxisTolerance) {
+      if (std::abs(d_link.y()) <= kMeasuredAxisTolerance) return aim_measured_mount(p_base, why);
       return fail(
           "projector optical axis not perpendicular to the tilt axis (closed form needs it)");
     }

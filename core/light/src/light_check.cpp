@@ -144,7 +144,29 @@ std::vector<float> model_depth(const ModelCloud& model, const Eigen::Isometry3d&
       }
     }
   }
-  return depth;
+  // The splats leave pinholes where a sample's normal was culled or the samples thin out: a pixel
+  // whose 5x5 neighbourhood is mostly model is model, at its neighbours' nearest depth. Holes
+  // are filled from the splatted image only, so the silhouette does not grow.
+  std::vector<float> filled = depth;
+  constexpr int kReach = 2;
+  constexpr int kMostly = 13;  // of the 24 neighbours
+  for (int v = kReach; v < h - kReach; ++v) {
+    for (int u = kReach; u < w - kReach; ++u) {
+      if (depth[static_cast<std::size_t>(v) * w + u] != 0.0f) continue;
+      int count = 0;
+      float nearest = 0.0f;
+      for (int dv = -kReach; dv <= kReach; ++dv) {
+        for (int du = -kReach; du <= kReach; ++du) {
+          const float z = depth[static_cast<std::size_t>(v + dv) * w + (u + du)];
+          if (z == 0.0f) continue;
+          ++count;
+          if (nearest == 0.0f || z < nearest) nearest = z;
+        }
+      }
+      if (count >= kMostly) filled[static_cast<std::size_t>(v) * w + u] = nearest;
+    }
+  }
+  return filled;
 }
 
 LightOnTarget light_on_target(const ColourFrame& dark, const ColourFrame& lit,
@@ -174,9 +196,11 @@ LightOnTarget light_on_target(const ColourFrame& dark, const ColourFrame& lit,
     if (added <= min_added_level) continue;
     ++out.lit_pixels;
     const double w = added;
-    total += w;
     const float z = depth.z_m[i], z_model = model_depth[i];
-    if (z == 0.0f) continue;  // no reading: cannot be shown to be on the target
+    // No reading (the Kinect's shadow beside edges, a grazing surface): neither on nor off the
+    // target, so the Kinect's holes at a small target's rim do not count as spilled light.
+    if (z == 0.0f) continue;
+    total += w;
     if (z_model > 0.0f) {
       if (std::abs(z - z_model) <= tolerance) {
         on += w;

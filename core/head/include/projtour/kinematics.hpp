@@ -50,6 +50,9 @@ class HeadKinematics {
                                 const Eigen::Isometry3d& T_projector_camera) const;
 
  private:
+  std::optional<JointAngles> aim_measured_mount(const Eigen::Vector3d& p_base,
+                                                std::string* why) const;
+
   PanTiltSpec pan_tilt_;
   MountSpec camera_mount_;
   MountSpec projector_mount_;

@@ -32,7 +32,8 @@ std::vector<float> model_depth(const ModelCloud& model, const Eigen::Isometry3d&
                                const PinholeModel& colour);
 
 struct LightOnTarget {
-  double on_target_fraction = 1.0;  // of the added light, by brightness; 0 when nothing was lit
+  double on_target_fraction = 1.0;  // of the added light where depth was read, by brightness;
+                                    // 0 when nothing was lit
   double in_front_fraction = 0.0;   // landing nearer than the target (an occluder)
   int lit_pixels = 0;
 };
