@@ -87,11 +87,15 @@ std::vector<std::string> projector_safety_problems(const fs::path& run_dir,
                                                    const std::vector<Json>& events) {
   // Mission seconds in the projector log are printed with six significant digits.
   constexpr double kSlackS = 0.01;
+  // The steps that light the projector: the structured light, the verification, the content.
+  const auto lights = [](const std::string& step) {
+    return step == "calibrate" || step == "verify" || step == "project";
+  };
   std::vector<std::pair<double, double>> project_spells;
   std::optional<double> entered_s;
   for (const Json& e : events) {
     if (!is_visit_step(e.at("state").get<std::string>()) ||
-        last_component(e.at("state").get<std::string>()) != "project") {
+        !lights(last_component(e.at("state").get<std::string>()))) {
       continue;
     }
     if (e.at("event").get<std::string>() == "enter") entered_s = e.at("t").get<double>();
@@ -124,7 +128,8 @@ std::vector<std::string> projector_safety_problems(const fs::path& run_dir,
     if (moving) problems.push_back("still lit when the base or head moved" + at);
     if (!inside_project(*lit_since_s, t_s)) {
       problems.push_back("lit from t=" + json_number_text(*lit_since_s) +
-                         " s to t=" + json_number_text(t_s) + " s outside a project state");
+                         " s to t=" + json_number_text(t_s) +
+                         " s outside a calibrate, verify or project state");
     }
     lit_since_s.reset();
   }

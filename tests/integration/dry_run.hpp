@@ -43,7 +43,8 @@ const Json& report_target(const Json& report, const std::string& id);
 
 // Problems with the projector's safety in a run directory, empty when safe: every lit spell in
 // sim_projector_log.jsonl (show .. next blank) starts and ends with the base and head still,
-// lies inside one `project` state of the same target (no other step moves anything while lit),
+// lies inside one `calibrate`, `verify` or `project` state of the same target (no other step
+// moves anything while lit),
 // and the projector is blank when the run ends.
 std::vector<std::string> projector_safety_problems(const fs::path& run_dir,
                                                    const std::vector<Json>& events);
