@@ -430,6 +430,11 @@ TEST(OpenNi2Colour, ExposureOnADeviceWithoutSettingsWarnsOnceAndKeepsStreaming) 
   ASSERT_EQ(frames.size(), 2u);
   EXPECT_DOUBLE_EQ(frames[1].exposure_ms, 0.0);  // the device's own, not reported
   EXPECT_THROW(camera->set_exposure_ms(-1.0), std::invalid_argument);
+  // The unit of the device's setting is checked when the mission loads.
+  EXPECT_NE(registry().validate_params("openni2_colour",
+                                       params_of("openni2_colour", {{"exposure_unit_ms", 0.0}})),
+            "");
+  EXPECT_EQ(registry().validate_params("openni2_colour", params_of("openni2_colour")), "");
 }
 
 // Depth and colour of one device: one openni::Device, so one device clock. Once depth has

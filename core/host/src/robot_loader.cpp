@@ -235,8 +235,9 @@ void read_structured_light(const YamlField& f, const PinholeModel& projector,
   if (!f.expect_map(false)) return;
   loader::check_keys(
       f, {"block_px", "hold_s", "exposure_ms", "min_correspondences", "max_residual_px"});
-  // At least 2: a 1-pixel stripe is beyond what the colour camera resolves at any distance and
-  // leaves no margin for the block's centroid.
+  // At least 2: camera and projector travel together, so a projector pixel covers the same part
+  // of a colour pixel at every distance (about a quarter on the UD) and one-pixel stripes never
+  // resolve.
   if (auto v = read_integer_at_least(f["block_px"], 2)) {
     const int smaller_side = std::min(projector.width, projector.height);
     if (smaller_side > 0 && *v > smaller_side) {
@@ -250,7 +251,7 @@ void read_structured_light(const YamlField& f, const PinholeModel& projector,
   }
   if (auto v = read_number(f["hold_s"], false, Sign::positive)) light.hold_s = *v;
   if (auto v = read_number(f["exposure_ms"], false, Sign::non_negative)) light.exposure_ms = *v;
-  // Six correspondences are the least the projector's pose (six unknowns) can be fitted from.
+  // Six: the fewest points OpenCV's default PnP (initialised by a DLT) takes in general position.
   if (auto v = read_integer_at_least(f["min_correspondences"], 6)) {
     light.min_correspondences = static_cast<int>(*v);
   }

@@ -2,10 +2,10 @@
 // "Dummy"), from the same device as `openni2` when both name it.
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <string>
 
 #include "openni2_device.hpp"
-#include "projtour/geometry.hpp"
 #include "projtour/plugin_author.hpp"
 
 namespace projtour::openni2 {
@@ -34,17 +34,23 @@ PinholeModel intrinsics_for(const PinholeModel& file, int width, int height) {
   return k;
 }
 
+// Milliseconds per step of the device's exposure setting; checked when the mission loads.
+double read_exposure_unit_ms(const Params& params) {
+  const double unit = params.number("exposure_unit_ms");
+  if (!(unit > 0.0) || !std::isfinite(unit)) {
+    throw std::invalid_argument("exposure_unit_ms: must be > 0");
+  }
+  return unit;
+}
+
 class OpenNi2Colour : public ColourCameraDriver {
  public:
   OpenNi2Colour(const Params& params, const RunContext& run)
       : file_(run.mission != nullptr ? run.mission->robot.camera.colour : ColourCameraSpec{}),
-        exposure_unit_ms_(params.number("exposure_unit_ms")),
+        exposure_unit_ms_(read_exposure_unit_ms(params)),
         log_(run.log),
         stream_(SharedDevice::acquire(params.string("uri"), kKind), openni::SENSOR_COLOR, kKind,
                 "colour", [this](openni::VideoStream& s) { choose_rgb_mode(s); }) {
-    if (!(exposure_unit_ms_ > 0.0)) {
-      throw std::runtime_error(std::string(kKind) + ": exposure_unit_ms must be > 0");
-    }
     const openni::VideoMode mode = stream_.stream().getVideoMode();
     if (mode.getPixelFormat() != openni::PIXEL_FORMAT_RGB888) {
       throw std::runtime_error(std::string(kKind) + ": the colour stream of " +
@@ -203,7 +209,7 @@ const projtour_param_desc kParams[] = {
 projtour_kind_desc colour_kind() {
   return driver_kind<OpenNi2Colour>(kKind, "colour_camera",
                                     "colour frames (BGR) from OpenNI2 (device, .oni file or Dummy)",
-                                    kParams);
+                                    kParams, validator<read_exposure_unit_ms>());
 }
 
 }  // namespace projtour::openni2

@@ -129,12 +129,14 @@ bool SensorStream::newest(openni::VideoFrameRef& frame) {
     if (status != openni::STATUS_OK) {
       throw DriverError(kind_ + ": waiting for a " + what_ + " frame failed: " + extended_error());
     }
-    if (stream_.readFrame(&frame) != openni::STATUS_OK || !frame.isValid()) {
+    openni::VideoFrameRef next;
+    if (stream_.readFrame(&next) != openni::STATUS_OK || !next.isValid()) {
       throw DriverError(kind_ + ": reading a " + what_ + " frame failed: " + extended_error());
     }
-    // The Dummy device's streams outlive their device: after a close and a reopen in one
-    // process, a new stream also receives the old streams' frames, of other sensors too.
-    if (frame.getSensorType() != sensor_) continue;
+    // A Dummy stream destroyed too early (see ~SensorStream) lives on and feeds its frames, of
+    // other sensors too, to the streams created after it.
+    if (next.getSensorType() != sensor_) continue;
+    frame = next;
     any = true;
   }
   return any;

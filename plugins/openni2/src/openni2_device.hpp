@@ -1,8 +1,7 @@
 #pragma once
 // What the openni2 kinds share: OpenNI itself, the device behind a URI and the streams of its
-// sensors. OpenNI2 drivers expect one open device per process (a second openni::Device on the
-// same Kinect fights the first over the USB interface), so the depth and the colour kind of one
-// URI hold the same SharedDevice, which closes when the last of them is gone.
+// sensors. OpenNI2 expects a device to be opened once per process, so the depth and the colour
+// kind of one URI hold the same SharedDevice, which closes when the last of them is gone.
 #include <OpenNI.h>
 
 #include <cstdint>
@@ -73,7 +72,6 @@ class SensorStream {
 
   openni::VideoStream& stream() { return stream_; }
   SharedDevice& device() { return *device_; }
-  const std::string& kind() const { return kind_; }
 
  private:
   std::shared_ptr<SharedDevice> device_;
