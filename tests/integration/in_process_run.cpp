@@ -105,6 +105,9 @@ InProcessRun::InProcessRun(const std::filesystem::path& mission, const std::file
     if (interface == "depth_camera") {
       drivers_.depth_camera = std::dynamic_pointer_cast<DepthCameraDriver>(d);
     }
+    if (interface == "colour_camera") {
+      drivers_.colour_camera = std::dynamic_pointer_cast<ColourCameraDriver>(d);
+    }
     if (interface == "pan_tilt") {
       drivers_.pan_tilt = std::make_shared<RecordingPanTilt>(
           std::dynamic_pointer_cast<PanTiltDriver>(d), calls_, clock_);
