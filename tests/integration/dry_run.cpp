@@ -127,9 +127,8 @@ std::vector<std::string> projector_safety_problems(const fs::path& run_dir,
     if (!lit_since_s) continue;  // blanking a blank projector
     if (moving) problems.push_back("still lit when the base or head moved" + at);
     if (!inside_project(*lit_since_s, t_s)) {
-      problems.push_back("lit from t=" + json_number_text(*lit_since_s) +
-                         " s to t=" + json_number_text(t_s) +
-                         " s outside a calibrate, verify or project state");
+      problems.push_back("lit from t=" + json_number_text(*lit_since_s) + " s to t=" +
+                         json_number_text(t_s) + " s outside a calibrate, verify or project state");
     }
     lit_since_s.reset();
   }

@@ -49,7 +49,8 @@ TEST_F(ClosedLoop, CalibrationDriftIsMeasuredAndCorrected) {
   }
   // The calibration a person can adopt: a projector fragment of the robot file.
   const std::string fragment = read_text(r.dir / "calibration.yaml");
-  EXPECT_TRUE(std::regex_search(fragment, std::regex("\nprojector:\n  mount: tilt\n  pose: \\{x: ")))
+  EXPECT_TRUE(
+      std::regex_search(fragment, std::regex("\nprojector:\n  mount: tilt\n  pose: \\{x: ")))
       << fragment;
   EXPECT_NE(fragment.find("open-day-sign"), std::string::npos) << fragment;
 }

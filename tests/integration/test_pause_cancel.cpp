@@ -14,8 +14,9 @@ constexpr int kSixtySecondsOfTicks = 1200;  // at the executor's 20 Hz
 
 // A visit that projects; `next` finishes the tour after the last target.
 std::vector<std::string> happy_visit(const char* next) {
-  return {"navigate:succeeded", "aim:succeeded",     "capture:succeeded",
-          "align:succeeded",    "project:succeeded", std::string("next:") + next};
+  return {
+      "navigate:succeeded",  "aim:succeeded",   "capture:succeeded", "align:succeeded",
+      "calibrate:succeeded", "verify:verified", "project:succeeded", std::string("next:") + next};
 }
 
 class InProcessTest : public ::testing::Test {
@@ -66,7 +67,7 @@ class SixtySecondPause : public InProcessTest, public ::testing::WithParamInterf
 
 // A minute's pause in the middle of any step is no fault: the visit goes on to project, the
 // tour completes, and while paused the projector and head get nothing but what pausing asks
-// (aim holds the head where it is, project blanks).
+// (aim holds the head where it is; calibrate, verify and project blank).
 TEST_P(SixtySecondPause, VisitStillProjects) {
   const PauseCase& c = GetParam();
   EXPECT_EQ(pause_in(c.step, c.ticks_in), c.calls_while_paused);
@@ -81,6 +82,8 @@ INSTANTIATE_TEST_SUITE_P(PauseInEveryStep, SixtySecondPause,
                          ::testing::Values(PauseCase{"navigate", 100, {}},
                                            PauseCase{"aim", 2, {"pan_tilt command"}},
                                            PauseCase{"capture", 0, {}}, PauseCase{"align", 0, {}},
+                                           PauseCase{"calibrate", 10, {"projector blank"}},
+                                           PauseCase{"verify", 1, {"projector blank"}},
                                            PauseCase{"project", 20, {"projector blank"}}),
                          [](const auto& info) { return std::string(info.param.step); });
 
