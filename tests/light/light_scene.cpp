@@ -90,6 +90,22 @@ std::optional<Hit> intersect_cylinder(const Surface& s, const Eigen::Vector3d& o
   return std::nullopt;
 }
 
+std::optional<Hit> intersect_sphere(const Surface& s, const Eigen::Vector3d& o,
+                                    const Eigen::Vector3d& d) {
+  const Eigen::Vector3d oc = o - s.centre;
+  const double b = oc.dot(d), c = oc.squaredNorm() - s.radius_m * s.radius_m;
+  const double discriminant = b * b - c;  // d is a unit vector
+  if (discriminant < 0.0) return std::nullopt;
+  const double root = std::sqrt(discriminant);
+  for (const double t : {-b - root, -b + root}) {
+    if (t <= kMinT) continue;
+    Eigen::Vector3d n = (oc + t * d) / s.radius_m;
+    if (n.dot(d) > 0.0) n = -n;
+    return Hit{t, -1, n};
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 std::optional<Hit> Scene::intersect(const Eigen::Vector3d& origin,
@@ -97,9 +113,18 @@ std::optional<Hit> Scene::intersect(const Eigen::Vector3d& origin,
   std::optional<Hit> best;
   for (std::size_t i = 0; i < surfaces.size(); ++i) {
     const Surface& s = surfaces[i];
-    std::optional<Hit> hit = s.kind == Surface::Kind::rectangle
-                                 ? intersect_rectangle(s, origin, direction)
-                                 : intersect_cylinder(s, origin, direction);
+    std::optional<Hit> hit;
+    switch (s.kind) {
+      case Surface::Kind::rectangle:
+        hit = intersect_rectangle(s, origin, direction);
+        break;
+      case Surface::Kind::cylinder:
+        hit = intersect_cylinder(s, origin, direction);
+        break;
+      case Surface::Kind::sphere:
+        hit = intersect_sphere(s, origin, direction);
+        break;
+    }
     if (hit && (!best || hit->t < best->t)) {
       hit->surface = static_cast<int>(i);
       best = hit;
@@ -126,6 +151,18 @@ Scene pillar_scene() {
   Scene scene;
   scene.surfaces.push_back(
       upright_cylinder(Eigen::Vector3d(0.0, 0.0, 1.46), 0.16, 3.0, {0.8f, 0.8f, 0.75f}));
+  scene.surfaces.push_back(wall());
+  return scene;
+}
+
+Scene ball_scene() {
+  Scene scene;
+  Surface ball;
+  ball.kind = Surface::Kind::sphere;
+  ball.centre = Eigen::Vector3d(0.02, 0.03, 1.075);
+  ball.radius_m = 0.075;
+  ball.albedo_bgr = {0.75f, 0.75f, 0.7f};
+  scene.surfaces.push_back(ball);
   scene.surfaces.push_back(wall());
   return scene;
 }

@@ -34,13 +34,13 @@ struct LightRig {
 LightRig default_rig();
 
 struct Surface {
-  enum class Kind { rectangle, cylinder };
+  enum class Kind { rectangle, cylinder, sphere };
   Kind kind = Kind::rectangle;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   // Rectangle: in-plane unit axes and half extents; its normal is u x v.
   Eigen::Vector3d u = Eigen::Vector3d::UnitX(), v = Eigen::Vector3d::UnitY();
   double half_u_m = 0.0, half_v_m = 0.0;
-  // Cylinder (open, no caps): unit axis, radius, half height along the axis.
+  // Cylinder (open, no caps): unit axis, radius, half height along the axis. Sphere: radius.
   Eigen::Vector3d axis = Eigen::Vector3d::UnitY();
   double radius_m = 0.0, half_height_m = 0.0;
   Eigen::Vector3f albedo_bgr{0.8f, 0.8f, 0.8f};
@@ -69,6 +69,7 @@ struct Scene {
 // Index 0 is the target in each of these; the last one is a wall behind everything.
 Scene sign_scene();    // the 0.46 x 0.36 m sign at 1.4 m, turned by 10 degrees
 Scene pillar_scene();  // a pillar of radius 0.16 m, its front at 1.3 m
+Scene ball_scene();    // a ball of 15 cm at 1.0 m, the size of the Stanford bunny
 // A 6 cm wide pole from top to bottom of the view at `z_m`, `x_m` across: the occluder.
 void add_pole(Scene& scene, double x_m, double z_m);
 

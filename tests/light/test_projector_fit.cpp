@@ -260,5 +260,29 @@ TEST(ProjectorFitPipeline, PillarRecoversTheCalibrationAtTheTarget) {
   EXPECT_LT(worst.position_mm, 1.5);
 }
 
+// The smallest target: a bunny-sized ball at 1 m gives about 200 whole blocks (those at its
+// rim and beyond 60 degrees are left out), still well over StructuredLightSpec's 40, and a fit
+// as good at the target.
+TEST(ProjectorFitPipeline, BunnySizedTargetStillFits) {
+  const test::LightRig rig = test::default_rig();
+  const test::Scene scene = test::ball_scene();
+  const test::Surface& ball = scene.surfaces[0];
+  std::vector<Eigen::Vector3d> target, box;
+  for (const Eigen::Vector3d& d :
+       {Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(0.5, 0, -0.87), Eigen::Vector3d(-0.5, 0, -0.87),
+        Eigen::Vector3d(0, 0.5, -0.87), Eigen::Vector3d(0, -0.5, -0.87)}) {
+    target.push_back(ball.centre + ball.radius_m * d.normalized());
+  }
+  for (double x : {-1.0, 1.0}) {
+    for (double y : {-1.0, 1.0}) {
+      box.push_back(ball.centre + ball.radius_m * Eigen::Vector3d(x, y, -1.0));
+    }
+  }
+  const PipelineResult r = run_pipeline(scene, test::colour_roi(rig.colour, box, 0), 51);
+  EXPECT_GT(r.lifted, 60u);
+  const FitErrors worst = report("ball", r, rig, target);
+  EXPECT_LT(worst.at_target_mm, 0.3);
+}
+
 }  // namespace
 }  // namespace projtour

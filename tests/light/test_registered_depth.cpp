@@ -3,8 +3,10 @@
 // the window holds two surfaces.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <random>
 
 #include "light_scene.hpp"
 #include "projtour/geometry.hpp"
@@ -73,6 +75,43 @@ TEST(RegisteredDepth, NoiselessSignLandsWhereTheColourCameraSeesIt) {
   EXPECT_GT(pixels, 15000);
   EXPECT_EQ(covered, pixels);  // the holes the lens leaves are filled
   EXPECT_LT(worst_mm, 1.5);
+}
+
+// One reading at a time, over the whole depth image: each lands on the colour pixel nearest to
+// where PinholeModel::project puts it, lens distortion and all.
+TEST(RegisteredDepth, ReadingsLandWherePinholeModelProjectsThem) {
+  const test::LightRig rig = test::default_rig();
+  DepthFrame frame;
+  frame.intrinsics = rig.depth;
+  frame.width = 640;
+  frame.height = 480;
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> mm(600, 3500);
+  int placed = 0;
+  for (int v = 0; v < 480; v += 37) {
+    for (int u = 0; u < 640; u += 41) {
+      frame.depth_mm.assign(640 * 480, 0);
+      const int d = mm(rng);
+      frame.depth_mm[static_cast<std::size_t>(v) * 640 + u] = static_cast<std::uint16_t>(d);
+      const Eigen::Vector3d p = Eigen::Vector3d((u - rig.depth.cx) / rig.depth.fx,
+                                                (v - rig.depth.cy) / rig.depth.fy, 1.0) *
+                                    (d * 0.001) +
+                                rig.depth_to_color_m;
+      const Eigen::Vector2d px = *rig.colour.project(p);
+      const RegisteredDepth r = register_depth(frame, rig.depth_to_color_m, rig.colour);
+      const int cu = static_cast<int>(std::lround(px.x())),
+                cv = static_cast<int>(std::lround(px.y()));
+      if (!rig.colour.in_image(Eigen::Vector2d(cu, cv))) {
+        EXPECT_EQ(std::count(r.z_m.begin(), r.z_m.end(), 0.0f), 640 * 480);
+        continue;
+      }
+      ++placed;
+      EXPECT_NEAR(r.at(cu, cv), p.z(), 1e-6) << u << "," << v;
+      EXPECT_TRUE(r.points_camera[static_cast<std::size_t>(cv) * 640 + cu].isApprox(p.cast<float>(),
+                                                                                    1e-6f));
+    }
+  }
+  EXPECT_GT(placed, 150);
 }
 
 TEST(RegisteredDepth, HolesAreFilledOverTheWholeImage) {

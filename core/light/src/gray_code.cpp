@@ -156,13 +156,13 @@ std::string check_frames(const GrayCodeSequence& sequence, const std::vector<Col
   return "";
 }
 
+// A block is kept with a footprint at least this fraction of its neighbours' median.
+constexpr double kMinFootprint = 0.85;
+
 // Where a block's pixels are: the median of those that decoded to it, robust to a minority
 // decoded far away (a wrong bit), and how far from it they may lie -- twice the radius of a disc
 // of the block's pixel count, so a spot stretched by an oblique surface still passes while
 // pixels strewn over the image do not.
-// A block is kept with a footprint at least this fraction of its neighbours' median.
-constexpr double kMinFootprint = 0.85;
-
 struct Spot {
   Eigen::Vector2f median = Eigen::Vector2f::Zero();
   float radius_sq = 0.0f;
@@ -344,6 +344,7 @@ DecodeResult decode(const GrayCodeSequence& sequence, const std::vector<ColourFr
         for (int du = -1; du <= 1; ++du) {
           const float w =
               wu[static_cast<std::size_t>(du + 1)] * wv[static_cast<std::size_t>(dv + 1)];
+          // Zero beyond the grid's edge (no boundary bit there), so target stays on the grid.
           if (w <= 0.0f) continue;
           const std::size_t target = b + static_cast<std::size_t>(dv * columns + du);
           if (!spots[target].found || !spots[target].holds(p)) continue;

@@ -125,7 +125,7 @@ ProjectorFit fit_projector_pose(const std::vector<Eigen::Vector3d>& points_camer
     const bool found = cv::solvePnPRansac(
         in.object, in.image, in.K, in.distortion, rvec, tvec, /*useExtrinsicGuess=*/true,
         std::max(settings.ransac_iterations, 1), static_cast<float>(settings.ransac_threshold_px),
-        0.999, ransac_inliers, cv::SOLVEPNP_ITERATIVE);
+        0.999, ransac_inliers, cv::SOLVEPNP_EPNP);
     if (found) pose = Pose{cv::Vec3d(rvec.reshape(1, 3)), cv::Vec3d(tvec.reshape(1, 3))};
     // The belief competes with RANSAC's sample: after a small disturbance it is usually the
     // better start, and it cannot be worse than a bad sample from a noisy minimal set.

@@ -1,0 +1,143 @@
+// The calibrate step's measurement, one thread: 28 rendered 640x480 colour frames of the Gray
+// code on the sign at 1.4 m decoded in a region around it, the Kinect depth frame registered
+// into the colour image, the blocks lifted to 3-D and the camera-projector transform fitted from
+// a belief 10 mm / 1 degree off. BM_calibration is the whole of it (the budget: 50 ms); the
+// others are its parts. Counters: blocks decoded, points lifted, inliers, rms_px of the fit, and
+// its error at the target (target_mm: the sign's corners as the projector images them, across
+// its rays) and of the transform (position_mm, rotation_deg).
+#include <benchmark/benchmark.h>
+
+#include <opencv2/core.hpp>
+
+#include "../light/light_scene.hpp"
+#include "projtour/geometry.hpp"
+#include "projtour/gray_code.hpp"
+#include "projtour/projector_fit.hpp"
+#include "projtour/registered_depth.hpp"
+
+namespace projtour {
+namespace {
+
+struct Fixture {
+  test::LightRig rig = test::default_rig();
+  test::Scene scene = test::sign_scene();
+  light::GrayCodeSequence sequence{rig.projector, light::GrayCodeSettings{}};
+  std::vector<ColourFrame> frames;
+  DepthFrame depth;
+  cv::Rect roi;
+  Eigen::Isometry3d belief;
+};
+
+const Fixture& fixture() {
+  static const Fixture f = [] {
+    Fixture out;
+    const test::ColourRenderer renderer(out.rig, out.scene);
+    out.frames = test::render_sequence(renderer, out.sequence, cv::Mat(), 1);
+    out.depth = test::render_depth(out.rig, out.scene, 2);
+    out.roi = test::colour_roi(out.rig.colour, test::rectangle_corners(out.scene.surfaces[0]), 8);
+    out.belief = test::perturb(out.rig.T_camera_projector, 0.010, deg_to_rad(1.0), 3).inverse();
+    return out;
+  }();
+  return f;
+}
+
+void report(benchmark::State& state, const Fixture& f, const light::DecodeResult& decoded,
+            const test::Correspondences& lifted, const light::ProjectorFit& fit) {
+  state.counters["blocks"] = static_cast<double>(decoded.blocks.size());
+  state.counters["lifted"] = static_cast<double>(lifted.points_camera.size());
+  state.counters["inliers"] = fit.inliers;
+  state.counters["rms_px"] = fit.rms_px;
+  if (!fit.T_projector_camera) {
+    state.SkipWithError(fit.problem.c_str());
+    return;
+  }
+  const Eigen::Isometry3d truth = f.rig.T_projector_camera();
+  double target_mm = 0.0;
+  for (const Eigen::Vector3d& p : test::rectangle_corners(f.scene.surfaces[0])) {
+    const double px = (*f.rig.projector.project(*fit.T_projector_camera * p) -
+                       *f.rig.projector.project(truth * p))
+                          .norm();
+    target_mm = std::max(target_mm, 1000.0 * px * (truth * p).z() / f.rig.projector.fx);
+  }
+  const Eigen::Isometry3d T_camera_projector = fit.T_projector_camera->inverse();
+  state.counters["target_mm"] = target_mm;
+  state.counters["position_mm"] =
+      1000.0 * translation_distance_m(T_camera_projector, f.rig.T_camera_projector);
+  state.counters["rotation_deg"] =
+      rad_to_deg(rotation_angle_rad(T_camera_projector, f.rig.T_camera_projector));
+}
+
+void BM_calibration(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const Fixture& f = fixture();
+  light::DecodeResult decoded;
+  test::Correspondences lifted;
+  light::ProjectorFit fit;
+  for (auto _ : state) {
+    decoded = light::decode(f.sequence, f.frames, f.roi);
+    const light::RegisteredDepth depth =
+        light::register_depth(f.depth, f.rig.depth_to_color_m, f.rig.colour);
+    lifted = test::lift_blocks(decoded, depth);
+    fit = light::fit_projector_pose(lifted.points_camera, lifted.projector_px, f.rig.projector,
+                                    f.belief);
+    benchmark::DoNotOptimize(fit.T_projector_camera);
+  }
+  report(state, f, decoded, lifted, fit);
+}
+
+void BM_decode(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const Fixture& f = fixture();
+  for (auto _ : state) {
+    const light::DecodeResult decoded = light::decode(f.sequence, f.frames, f.roi);
+    benchmark::DoNotOptimize(decoded.blocks.data());
+  }
+}
+
+void BM_register_depth(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const Fixture& f = fixture();
+  for (auto _ : state) {
+    const light::RegisteredDepth depth =
+        light::register_depth(f.depth, f.rig.depth_to_color_m, f.rig.colour);
+    benchmark::DoNotOptimize(depth.z_m.data());
+  }
+}
+
+void BM_lift(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const Fixture& f = fixture();
+  const light::DecodeResult decoded = light::decode(f.sequence, f.frames, f.roi);
+  const light::RegisteredDepth depth =
+      light::register_depth(f.depth, f.rig.depth_to_color_m, f.rig.colour);
+  for (auto _ : state) {
+    const test::Correspondences lifted = test::lift_blocks(decoded, depth);
+    benchmark::DoNotOptimize(lifted.points_camera.data());
+  }
+}
+
+void BM_fit(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const Fixture& f = fixture();
+  const light::DecodeResult decoded = light::decode(f.sequence, f.frames, f.roi);
+  const test::Correspondences lifted = test::lift_blocks(
+      decoded, light::register_depth(f.depth, f.rig.depth_to_color_m, f.rig.colour));
+  light::ProjectorFit fit;
+  for (auto _ : state) {
+    fit = light::fit_projector_pose(lifted.points_camera, lifted.projector_px, f.rig.projector,
+                                    f.belief);
+    benchmark::DoNotOptimize(fit.T_projector_camera);
+  }
+  report(state, f, decoded, lifted, fit);
+}
+
+BENCHMARK(BM_calibration)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_decode)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_register_depth)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_lift)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_fit)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace projtour
+
+BENCHMARK_MAIN();
