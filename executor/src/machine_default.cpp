@@ -43,6 +43,9 @@ states:
           failed: skip_target
       align:
         behaviour: align
+        # verify's colour camera decides whether the content lands; the fit's own gate refuses
+        # only what is plainly not the target (a rough scan of the model fits at about 0.5)
+        params: {min_inlier_fraction: 0.4}
         on:
           succeeded: calibrate
           poor_fit: [capture, aim, skip_target]

@@ -18,7 +18,6 @@
 namespace projtour::closed_loop {
 
 struct CalibrateSettings {
-  double edge_margin_px = 8.0;
   int mask_margin_px = 48;
   int roi_margin_px = 24;
   double frame_timeout_s = 1.0;
@@ -28,13 +27,11 @@ struct CalibrateSettings {
 
 static CalibrateSettings read_settings(const Params& p) {
   CalibrateSettings s;
-  s.edge_margin_px = p.number("edge_margin_px");
   s.mask_margin_px = static_cast<int>(p.integer("mask_margin_px"));
   s.roi_margin_px = static_cast<int>(p.integer("roi_margin_px"));
   s.frame_timeout_s = p.number("frame_timeout_s");
   s.max_change_mm = p.number("max_change_mm");
   s.max_change_deg = p.number("max_change_deg");
-  if (s.edge_margin_px < 0) throw std::invalid_argument("edge_margin_px: must be >= 0");
   if (s.mask_margin_px < 0 || s.mask_margin_px > 400) {
     throw std::invalid_argument("mask_margin_px: must lie in [0, 400]");
   }
@@ -107,7 +104,9 @@ void Calibrate::start(Context& ctx) {
   early_.reset();
   view_.reset();
   result_ = CalibrateResult{};
-  auto looked = look_at_target(ctx, settings_->edge_margin_px);
+  // The calibration believed so far may put the Model Points just off the image; the sequence
+  // needs only enough of the target lit, and verify re-aims with what it measures.
+  auto looked = look_at_target(ctx, -1.0);
   if (looked.outcome) {
     early_ = looked.outcome;
     return;
@@ -116,6 +115,16 @@ void Calibrate::start(Context& ctx) {
   const RobotSpec& robot = ctx.robot();
   mask_ = projector_mask(*view_, robot.projector.intrinsics, robot.structured_light.block_px,
                          settings_->mask_margin_px);
+  const int lit_px = cv::countNonZero(mask_);
+  const int block_area_px = robot.structured_light.block_px * robot.structured_light.block_px;
+  if (lit_px < robot.structured_light.min_correspondences * block_area_px) {
+    early_ = Outcome{"off_screen", target_prefix(ctx) + "the target covers " +
+                                       std::to_string(lit_px / block_area_px) +
+                                       " projector blocks, fewer than the " +
+                                       std::to_string(robot.structured_light.min_correspondences) +
+                                       " the structured light needs"};
+    return;
+  }
   capture_.start(
       ctx, sequence_->size(), [this](int i) { return sequence_->frame(i, mask_); },
       robot.structured_light.hold_s, robot.structured_light.exposure_ms);

@@ -36,8 +36,6 @@ void check_wait_params(const Params& params) {
 }
 
 const projtour_param_desc kCalibrateParams[] = {
-    {"edge_margin_px", "number", "8",
-     "a Model Point this close to the projector image's edge means off_screen (re-aim)"},
     {"mask_margin_px", "integer", "48",
      "the structured light covers the model's projector pixels grown by this much"},
     {"roi_margin_px", "integer", "24", "colour pixels decoded: the model's, grown by this much"},

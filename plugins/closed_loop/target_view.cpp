@@ -45,6 +45,10 @@ TargetViewOrOutcome look_at_target(Context& ctx, double edge_margin_px) {
   v.quad = project_model_points(ctx.target->model_points, v.T_projector_camera * v.T_camera_model,
                                 projector);
   TargetViewOrOutcome out;
+  if (edge_margin_px < 0.0) {
+    out.view = std::move(v);
+    return out;
+  }
   if (!v.quad.on_screen) {
     out.outcome = Outcome{"off_screen", who + v.quad.problem};
     return out;

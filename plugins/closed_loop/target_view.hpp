@@ -35,6 +35,8 @@ struct TargetViewOrOutcome {
   std::optional<TargetView> view;
   std::optional<Outcome> outcome;
 };
+// A negative edge_margin_px skips the on-screen check (calibrate lights what of the target the
+// projector reaches; the Model Points need be on screen only for what is shown on them).
 TargetViewOrOutcome look_at_target(Context& ctx, double edge_margin_px);
 
 // Projector pixels that light the model (its points splatted with radius_px, then grown by

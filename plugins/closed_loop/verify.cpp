@@ -6,6 +6,7 @@
 #include "verify.hpp"
 
 #include <cmath>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -56,6 +57,39 @@ std::string fixed(double v, int digits) {
   s.precision(digits);
   s << std::fixed << v;
   return s.str();
+}
+
+// Where the colour ray through `px` meets the target: the registered depth's surface, or where
+// the Kinect read nothing there (a grazing rim, its shadow beside an edge) the aligned model's
+// tangent plane at the Model Point.
+std::optional<Eigen::Vector3d> lift_on_target(const light::RegisteredDepth& depth,
+                                              const PinholeModel& colour,
+                                              const Eigen::Vector2d& px,
+                                              const Eigen::Vector3d& plane_point,
+                                              const Eigen::Vector3d& plane_normal) {
+  if (const auto p = light::lift(depth, px)) return p;
+  const Eigen::Vector3d ray = colour.unproject(px);
+  const double denom = plane_normal.dot(ray);
+  if (std::abs(denom) < 1e-6) return std::nullopt;
+  const double s = plane_normal.dot(plane_point) / denom;
+  if (!(s > 0.0)) return std::nullopt;
+  return s * ray;
+}
+
+// The model's normal (camera frame) at its sample nearest to `p_model`.
+Eigen::Vector3d normal_near(const ModelCloud& model, const Eigen::Isometry3d& T_camera_model,
+                            const Eigen::Vector3d& p_model) {
+  std::size_t best = 0;
+  double best_d2 = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < model.points.size(); ++i) {
+    const double d2 = (model.points[i].cast<double>() - p_model).squaredNorm();
+    if (d2 < best_d2) {
+      best_d2 = d2;
+      best = i;
+    }
+  }
+  if (model.normals.size() != model.points.size()) return -T_camera_model.translation().normalized();
+  return T_camera_model.linear() * model.normals[best].cast<double>();
 }
 
 cv::Mat as_mat(const ColourFrame& f) {
@@ -172,12 +206,20 @@ Outcome Verify::measure(Context& ctx) {
       continue;
     }
     observed[i] = *found[i];
-    const auto p = light::lift(depth, *found[i]);
+    // Light lands on the surface, so the error is measured on it: the dot against the Model
+    // Point carried along the camera's ray onto the same surface. A Model Point of a rough
+    // model floats a few millimetres off the real surface, where no light can land.
+    const Eigen::Vector3d& M = view_->model_points_camera[i];
+    const Eigen::Vector3d n =
+        normal_near(*view_->model, view_->T_camera_model, ctx.target->model_points[i]);
+    const auto p = lift_on_target(depth, colour, *found[i], M, n);
     if (!p) {
-      unseen += (unseen.empty() ? "" : ", ") + std::to_string(i + 1) + " (no depth)";
+      unseen += (unseen.empty() ? "" : ", ") + std::to_string(i + 1) + " (no surface)";
       continue;
     }
-    const double e_mm = 1e3 * (*p - view_->model_points_camera[i]).norm();
+    const Eigen::Vector3d M_surface =
+        lift_on_target(depth, colour, result_.expected_colour_px[i], M, n).value_or(M);
+    const double e_mm = 1e3 * (*p - M_surface).norm();
     result_.corner_error_mm[i] = e_mm;
     sum_mm += e_mm;
     ++seen;
