@@ -89,7 +89,7 @@ TEST_F(WorldLoader, ShippedExampleLoadsAgainstAMissionWithItsTarget) {
       load_world(PROJTOUR_SOURCE_DIR "/examples/worlds/atrium_faults.yaml", mission, diag);
   ASSERT_TRUE(world) << diag.format();
   EXPECT_EQ(world->seed, 7u);
-  EXPECT_EQ(world->faults.size(), 2u);
+  EXPECT_EQ(world->faults.size(), 3u);
 }
 
 TEST_F(WorldLoader, UnknownTargetIdSuggests) {
@@ -109,17 +109,64 @@ TEST_F(WorldLoader, FaultOnUnknownTarget) {
 }
 
 TEST_F(WorldLoader, UnknownFaultType) {
-  EXPECT_THAT(
-      world_errors(replace(kWorld, "frame_dropout", "dropout")),
-      ElementsAre(dir + "/w.yaml:10:28: faults[0].type: expected one of frame_dropout, "
-                        "target_missing, occluder, blocked_path, kidnap, "
-                        "camera_disconnect, projector_failure, target_nudge, got \"dropout\""));
+  EXPECT_THAT(world_errors(replace(kWorld, "frame_dropout", "dropout")),
+              ElementsAre(dir + "/w.yaml:10:28: faults[0].type: expected one of frame_dropout, "
+                                "target_missing, occluder, blocked_path, kidnap, "
+                                "camera_disconnect, projector_failure, target_nudge, pole, got "
+                                "\"dropout\""));
 }
 
 TEST_F(WorldLoader, FaultValueNotANumber) {
   EXPECT_THAT(world_errors(replace(kWorld, "fraction: 0.5", "fraction: half")),
               ElementsAre(dir + "/w.yaml:10:53: faults[0].fraction: expected a number, got "
                                 "\"half\""));
+}
+
+// A pole fault as the third fault, on line 12.
+std::string with_pole(const std::string& numbers) {
+  return replace(kWorld, "at_s: 20}\n",
+                 "at_s: 20}\n  - {target: rabbit, type: pole, " + numbers + "}\n");
+}
+
+TEST_F(WorldLoader, PoleFault) {
+  Diagnostics diag;
+  const auto world =
+      load_world(write("w.yaml", with_pole("distance_m: 0.6, diameter_m: 0.05, offset_m: -0.2")),
+                 mission, diag);
+  ASSERT_TRUE(world) << diag.format();
+  ASSERT_EQ(world->faults.size(), 3u);
+  EXPECT_EQ(world->faults[2].type, "pole");
+  EXPECT_EQ(world->faults[2].values,
+            (std::map<std::string, double>{
+                {"distance_m", 0.6}, {"diameter_m", 0.05}, {"offset_m", -0.2}}));
+  // Every number is optional.
+  EXPECT_TRUE(load_world(write("w.yaml", replace(with_pole("offset_m: 0"), ", offset_m: 0", "")),
+                         mission, diag))
+      << diag.format();
+}
+
+TEST_F(WorldLoader, PoleDiameterMustBePositive) {
+  EXPECT_THAT(world_errors(with_pole("distance_m: 0.6, diameter_m: -0.05")),
+              ElementsAre(dir + "/w.yaml:12:63: faults[2].diameter_m: expected a number > 0, got "
+                                "-0.05"));
+}
+
+TEST_F(WorldLoader, PoleDistanceMustBePositive) {
+  EXPECT_THAT(world_errors(with_pole("distance_m: 0, offset_m: -0.2")),
+              ElementsAre(dir + "/w.yaml:12:46: faults[2].distance_m: expected a number > 0, got "
+                                "0"));
+}
+
+TEST_F(WorldLoader, PoleUnknownKeySuggests) {
+  EXPECT_THAT(world_errors(with_pole("distance_m: 0.6, diamter_m: 0.05")),
+              ElementsAre(dir + "/w.yaml:12:51: faults[2].diamter_m: unknown key \"diamter_m\"; "
+                                "did you mean \"diameter_m\"?"));
+}
+
+TEST_F(WorldLoader, PoleValueNotANumber) {
+  EXPECT_THAT(world_errors(with_pole("distance_m: 0.6, diameter_m: thin")),
+              ElementsAre(dir + "/w.yaml:12:63: faults[2].diameter_m: expected a number, got "
+                                "\"thin\""));
 }
 
 TEST_F(WorldLoader, UnknownTopKeySuggests) {

@@ -1,11 +1,15 @@
 #pragma once
 // A small dry-run world for the sim tests: the UD robot, a walled room, one flat sign (exact
 // geometry, so the referee's figures are predictable) and optionally the bunny.
+#include <gtest/gtest.h>
+
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 
 #include "projtour/context.hpp"
+#include "projtour/kinematics.hpp"
 #include "projtour/mission_loader.hpp"
 #include "projtour_sim/sim_drivers.hpp"
 #include "projtour_test/run_rig.hpp"
@@ -73,5 +77,29 @@ struct Rig {
     for (double t = sim->time_s() + dt_s; t <= t_s + 1e-9; t += dt_s) sim->advance(t);
   }
 };
+
+// The pixels a perfect robot would choose: the true Model Points through the true projector.
+inline std::array<Eigen::Vector2d, 4> true_pixels(const Rig& rig, const SimWorld& w) {
+  std::array<Eigen::Vector2d, 4> px;
+  const Eigen::Isometry3d T_projector_map = w.true_T_map_projector().inverse();
+  for (int i = 0; i < 4; ++i) {
+    const auto p = rig.mission.robot.projector.intrinsics.project(
+        T_projector_map * w.true_T_map_model("sign") * rig.mission.targets[0].model_points[i]);
+    EXPECT_TRUE(p);
+    px[i] = *p;
+  }
+  return px;
+}
+
+// Aims the head at the sign from where the robot stands.
+inline void aim_at_sign(Rig& rig, SimWorld& w) {
+  const HeadKinematics head(rig.mission.robot);
+  const Eigen::Vector3d p_base = w.true_T_map_base().inverse() * Eigen::Vector3d(3.0, 0.0, 0.9);
+  const auto q = head.aim_projector_at(p_base);
+  ASSERT_TRUE(q);
+  w.command_head(*q);
+  rig.run_until(w.time_s() + 2.0);
+  ASSERT_TRUE(w.head_reached());
+}
 
 }  // namespace projtour::sim::testing

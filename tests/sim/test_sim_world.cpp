@@ -15,7 +15,9 @@
 namespace projtour::sim {
 namespace {
 
+using testing::aim_at_sign;
 using testing::Rig;
+using testing::true_pixels;
 
 TEST(SimBase, OdometryDriftWithinConfiguredRange) {
   for (std::uint64_t seed : {1u, 2u, 3u}) {
@@ -104,30 +106,6 @@ TEST(SimPanTilt, RateLimitedAndSettles) {
   EXPECT_NEAR(rad_to_deg(w.true_head().pan_rad), 170.0, 1e-9);
 }
 
-// The pixels a perfect robot would choose: the true Model Points through the true projector.
-std::array<Eigen::Vector2d, 4> true_pixels(const Rig& rig, const SimWorld& w) {
-  std::array<Eigen::Vector2d, 4> px;
-  const Eigen::Isometry3d T_projector_map = w.true_T_map_projector().inverse();
-  for (int i = 0; i < 4; ++i) {
-    const auto p = rig.mission.robot.projector.intrinsics.project(
-        T_projector_map * w.true_T_map_model("sign") * rig.mission.targets[0].model_points[i]);
-    EXPECT_TRUE(p);
-    px[i] = *p;
-  }
-  return px;
-}
-
-// Aims the head at the sign from its stand-off pose.
-void aim_at_sign(Rig& rig, SimWorld& w) {
-  const HeadKinematics head(rig.mission.robot);
-  const Eigen::Vector3d p_base = w.true_T_map_base().inverse() * Eigen::Vector3d(3.0, 0.0, 0.9);
-  const auto q = head.aim_projector_at(p_base);
-  ASSERT_TRUE(q);
-  w.command_head(*q);
-  rig.run_until(w.time_s() + 2.0);
-  ASSERT_TRUE(w.head_reached());
-}
-
 TEST(SimReferee, ZeroForTruePixelsAndExpectedForAnOffset) {
   Rig rig(1, {2.0, 0.0, 0.0});
   SimWorld& w = rig.make();
@@ -193,7 +171,8 @@ TEST(SimReferee, WritesBeforeAndAfterViews) {
   for (const char* name : {"before.png", "after.png"}) {
     const cv::Mat image = cv::imread((dir / name).string());
     ASSERT_FALSE(image.empty()) << name;
-    EXPECT_EQ(image.cols, 640);
+    // The virtual camera's view, and the colour camera's beside it.
+    EXPECT_EQ(image.cols, 640 + 640);
     EXPECT_EQ(image.rows, 480);
     // The shaded board fills the middle.
     const cv::Vec3b centre = image.at<cv::Vec3b>(240, 320);

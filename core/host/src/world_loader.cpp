@@ -1,4 +1,6 @@
 // The world file of a dry run (format documented in examples/worlds/atrium_faults.yaml).
+#include <map>
+
 #include "loader_fields.hpp"
 #include "projtour/mission_loader.hpp"
 
@@ -10,8 +12,19 @@ using loader::read_number;
 using loader::Sign;
 
 const std::vector<std::string> kFaultTypes = {
-    "frame_dropout", "target_missing",    "occluder",          "blocked_path",
-    "kidnap",        "camera_disconnect", "projector_failure", "target_nudge"};
+    "frame_dropout",     "target_missing",    "occluder",     "blocked_path", "kidnap",
+    "camera_disconnect", "projector_failure", "target_nudge", "pole"};
+
+// Fault types whose numbers are checked here, by name and sign. The others' numbers need only be
+// numbers (what they mean is the simulator's business, and older files carry unused ones).
+struct FaultNumber {
+  const char* key;
+  Sign sign;
+};
+const std::map<std::string, std::vector<FaultNumber>> kCheckedFaults = {
+    {"pole",
+     {{"distance_m", Sign::positive}, {"diameter_m", Sign::positive}, {"offset_m", Sign::any}}},
+};
 
 std::vector<std::string> target_ids(const MissionSpec& mission) {
   std::vector<std::string> ids;
@@ -90,7 +103,13 @@ void read_faults(const YamlField& f, const MissionSpec& mission, Diagnostics& di
     } else {
       ok = false;
     }
-    // What each type's numbers mean is the simulator's business; here they need only be numbers.
+    const std::size_t errors_before = diag.error_count();
+    const auto checked = kCheckedFaults.find(fault.type);
+    if (checked != kCheckedFaults.end()) {
+      std::vector<std::string> allowed = {"target", "type"};
+      for (const FaultNumber& n : checked->second) allowed.push_back(n.key);
+      entry.check_keys(allowed);
+    }
     for (const auto& kv : entry.node()) {
       if (!kv.first.IsScalar()) {
         entry.error("expected field names as keys");
@@ -105,6 +124,13 @@ void read_faults(const YamlField& f, const MissionSpec& mission, Diagnostics& di
         ok = false;
       }
     }
+    if (checked != kCheckedFaults.end()) {
+      for (const FaultNumber& n : checked->second) {
+        // Only numbers are checked for their sign: a non-number has had its diagnostic.
+        if (fault.values.count(n.key)) read_number(entry[n.key], false, n.sign);
+      }
+    }
+    ok &= diag.error_count() == errors_before;
     if (ok) world.faults.push_back(std::move(fault));
   }
 }

@@ -252,7 +252,10 @@ ColourFrame ColourRenderer::expose(const cv::Mat& radiance, double exposure_ms,
   }
   cv::Mat image = radiance;
   if (light_.blur_px > 0.0) {
-    cv::GaussianBlur(radiance, image, cv::Size(0, 0), light_.blur_px, light_.blur_px,
+    // +-3 sigma: OpenCV's own choice for float images is +-4, a third more work for nothing an
+    // 8-bit picture can show.
+    const int ksize = 2 * static_cast<int>(std::ceil(3.0 * light_.blur_px)) + 1;
+    cv::GaussianBlur(radiance, image, cv::Size(ksize, ksize), light_.blur_px, light_.blur_px,
                      cv::BORDER_REPLICATE);
   } else if (!image.isContinuous()) {
     image = image.clone();
@@ -266,28 +269,42 @@ ColourFrame ColourRenderer::expose(const cv::Mat& radiance, double exposure_ms,
   frame.bgr.resize(n);
   const float* in = image.ptr<float>(0);
   const float scale = static_cast<float>(exposure_ms / kFullScaleNitMs);
+  const auto& encode = encode_table();
+  std::uint8_t* out = frame.bgr.data();
+  if (rng == nullptr || light_.noise <= 0.0) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const float v = std::clamp(in[i] * scale, 0.0f, 1.0f);
+      out[i] = encode[static_cast<int>(v * kSignalSteps + 0.5f)];
+    }
+    return frame;
+  }
+  // One draw from the caller's engine seeds the frame's own SplitMix64 sequence: a fifth of the
+  // cost of drawing every sample from a Mersenne Twister, and as reproducible.
+  std::uint64_t state = (*rng)();
+  const auto next_bits = [&state]() {
+    std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  };
+  constexpr int kPerDraw = 64 / kGaussianBits;
+  constexpr std::uint64_t kMask = (1u << kGaussianBits) - 1;
+  const float* gauss = gaussian_table().data();
   const float shot = static_cast<float>(light_.noise * light_.noise / kFullWellElectrons);
   const float read = static_cast<float>(light_.noise * kReadNoise * light_.noise * kReadNoise);
-  const bool noisy = rng != nullptr && light_.noise > 0.0;
-  const auto& gauss = gaussian_table();
-  const auto& encode = encode_table();
-  std::uint64_t bits = 0;
-  int samples_left = 0;
-  constexpr std::uint64_t kMask = (1u << kGaussianBits) - 1;
-  for (std::size_t i = 0; i < n; ++i) {
-    float v = in[i] * scale;
-    if (noisy) {
-      if (samples_left == 0) {
-        bits = (*rng)();
-        samples_left = 64 / kGaussianBits;
-      }
-      const float g = gauss[bits & kMask];
-      bits >>= kGaussianBits;
-      --samples_left;
-      v += std::sqrt(std::max(v, 0.0f) * shot + read) * g;
-    }
+  const auto sample = [&](std::size_t j, float g) {
+    float v = in[j] * scale;
+    v += std::sqrt(std::max(v, 0.0f) * shot + read) * g;
     v = std::clamp(v, 0.0f, 1.0f);
-    frame.bgr[i] = encode[static_cast<std::size_t>(v * kSignalSteps + 0.5f)];
+    out[j] = encode[static_cast<int>(v * kSignalSteps + 0.5f)];
+  };
+  std::size_t j = 0;
+  for (; j + kPerDraw <= n; j += kPerDraw) {
+    std::uint64_t bits = next_bits();
+    for (int s = 0; s < kPerDraw; ++s, bits >>= kGaussianBits) sample(j + s, gauss[bits & kMask]);
+  }
+  for (std::uint64_t bits = next_bits(); j < n; ++j, bits >>= kGaussianBits) {
+    sample(j, gauss[bits & kMask]);
   }
   return frame;
 }

@@ -145,25 +145,25 @@ AreaFigures area_figures(const TargetSpec& target, const Eigen::Isometry3d& T_ma
   };
 
   if (robot) {
-    // Content points the projector's image does not hold send no light at all.
+    // Content the projector's image does not hold is not lit at all: it misses the target too.
     constexpr int kLightGrid = 32;
-    int inside = 0, off = 0;
+    int off = 0;
     for (int j = 0; j < kLightGrid; ++j) {
       for (int i = 0; i < kLightGrid; ++i) {
         const Eigen::Vector2d c((i + 0.5) / kLightGrid, (j + 0.5) / kLightGrid);
         const auto px = lit_pixel(*robot, c);
         if (!px || !px->allFinite() || px->x() < -0.5 || px->y() < -0.5 ||
             px->x() > projector.width - 0.5 || px->y() > projector.height - 0.5) {
+          ++off;
           continue;
         }
-        ++inside;
         RayHit hit;
         const bool hits = full.intersect(origin.cast<float>(), true_ray(*px).cast<float>(),
                                          std::numeric_limits<float>::infinity(), hit);
         off += !hits || hit.object_id != object_id;
       }
     }
-    out.light_off_target_fraction = inside > 0 ? static_cast<double>(off) / inside : 0.0;
+    out.light_off_target_fraction = static_cast<double>(off) / (kLightGrid * kLightGrid);
   }
   if (robot && perfect) {
     constexpr int kAreaGrid = 9;

@@ -1,5 +1,5 @@
 #pragma once
-// The simulated world of a dry run: one per run, shared by the five simulated drivers (the first
+// The simulated world of a dry run: one per run, shared by the six simulated drivers (the first
 // one created makes it, the others attach). It advances once per distinct mission time, knows
 // the truth (true base pose, true head, true target meshes and poses, the true camera-projector
 // calibration) and referees the projection.
@@ -7,13 +7,15 @@
 // World-file keys it reads (WorldSpec, see examples/worlds/atrium_faults.yaml): targets (true
 // poses), target_offset, noise (odometry, laser, encoders, depth), model_error, calibration_error
 // and faults. Fault numbers, all optional:
-//   frame_dropout      fraction (0.5)        share of frames delivered empty
+//   frame_dropout      fraction (0.5)        share of depth frames delivered empty (the colour
+//                                            camera's frames all arrive)
 //   target_missing     -                     the target is not there at all
 //   occluder           distance_m (0.5), width_m (0.4), height_m (0.4)
 //                      a hanging board (above the laser plane) that far in front of the target
 //   blocked_path       size_m (0.6)          a box on the target's stand-off pose (laser sees it)
 //   kidnap             distance_m (1.0)      the true pose jumps when the robot arrives
-//   camera_disconnect  after_frames (0)      grab() throws after that many frames
+//   camera_disconnect  after_frames (0)      grab() throws after that many frames, and
+//                                            grab_colour() after that many colour frames
 //   projector_failure  after_shows (0)       show() throws after that many shows
 //   target_nudge       after_s (1.0), distance_m (0.02), direction_deg (90), yaw_deg (0)
 //                      the true target moves once, after_s seconds after the projector first
@@ -21,7 +23,14 @@
 //                      direction_deg (counter-clockwise from the map's +x; dx_m/dy_m instead
 //                      give the shift directly) and turned yaw_deg about its own z axis. The
 //                      camera and the referee see the moved target from then on.
-// Faults other than the static obstacles (target_missing, occluder, blocked_path) act while
+//   pole               distance_m (0.6), diameter_m (0.05), offset_m (0)
+//                      a vertical pole (16-sided prism) from the floor to 2 m, that far in
+//                      front of the target toward its stand-off pose and offset_m sideways
+//                      (positive = left seen from the target): the cameras see it, it takes
+//                      the projector's light and shadows what is behind, and the laser and the
+//                      bumper meet it (unless it stands on the stand-off pose itself, where it
+//                      would be blocked_path: then only the cameras and the light meet it).
+// Faults other than the static obstacles (target_missing, occluder, blocked_path, pole) act while
 // their target is the one the robot is at: the nearest target within its stand-off + 1.5 m.
 #include <Eigen/Geometry>
 #include <filesystem>
@@ -118,10 +127,15 @@ class SimWorld : public GroundTruth {
   // The true projector pose: the robot file's mount perturbed by the calibration error.
   Eigen::Isometry3d true_T_map_projector() const;
   // A ray that misses the true mesh is met with the plane of the true Model Points instead.
+  // The area errors come from a 9x9 grid of content points, the light off the target from
+  // 32x32 (content beyond the projector's image counts as off it); all three are NaN when the
+  // four pixels, or the true Model Points in the true projector, carry no homography.
   std::optional<ProjectionTruth> evaluate_projection(
       const std::string& target_id,
       const std::array<Eigen::Vector2d, 4>& projector_px) const override;
   void set_visited_target(const std::string& target_id) override;
+  // Beside each view, the colour camera's: noise-free at the structured light's exposure, with
+  // the frame last shown while this target was active, from where the robot stood then.
   void write_projection_views(
       const std::string& target_id, const std::array<Eigen::Vector2d, 4>& pixels_before_align,
       const std::array<Eigen::Vector2d, 4>& pixels_after_align,
