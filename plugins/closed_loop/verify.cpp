@@ -63,8 +63,7 @@ std::string fixed(double v, int digits) {
 // the Kinect read nothing there (a grazing rim, its shadow beside an edge) the aligned model's
 // tangent plane at the Model Point.
 std::optional<Eigen::Vector3d> lift_on_target(const light::RegisteredDepth& depth,
-                                              const PinholeModel& colour,
-                                              const Eigen::Vector2d& px,
+                                              const PinholeModel& colour, const Eigen::Vector2d& px,
                                               const Eigen::Vector3d& plane_point,
                                               const Eigen::Vector3d& plane_normal) {
   if (const auto p = light::lift(depth, px)) return p;
@@ -88,7 +87,8 @@ Eigen::Vector3d normal_near(const ModelCloud& model, const Eigen::Isometry3d& T_
       best = i;
     }
   }
-  if (model.normals.size() != model.points.size()) return -T_camera_model.translation().normalized();
+  if (model.normals.size() != model.points.size())
+    return -T_camera_model.translation().normalized();
   return T_camera_model.linear() * model.normals[best].cast<double>();
 }
 

@@ -102,6 +102,8 @@ TrueProjection true_projection(const TargetSpec& target, const Eigen::Isometry3d
   for (int i = 0; i < 4; ++i) {
     const Eigen::Vector3d dir = T_map_projector.linear() * projector.unproject(projector_px[i]);
     out.landed_map[i] = land(alone, plane, origin, dir, P[i], out.on_mesh[i]);
+    bool perfect_on_mesh = false;
+    out.surface_points_map[i] = land(alone, plane, origin, P[i] - origin, P[i], perfect_on_mesh);
     const auto truth_px = projector.project(T_projector_map * P[i]);
     out.error_px[i] =
         truth_px ? (*truth_px - projector_px[i]).norm() : std::numeric_limits<double>::quiet_NaN();
@@ -261,7 +263,7 @@ void write_projection_view(const Scene& alone, const Eigen::Isometry3d& T_map_mo
   }
   double mean_mm = 0.0;
   for (int i = 0; i < 4; ++i) {
-    mean_mm += 250.0 * (projection.landed_map[i] - projection.model_points_map[i]).norm();
+    mean_mm += 0.25 * projection.error_mm(i);
   }
   std::ostringstream caption;
   caption.precision(1);

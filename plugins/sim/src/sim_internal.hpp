@@ -23,7 +23,12 @@ struct TrueProjection {
   std::array<Eigen::Vector3d, 4> landed_map;        // on the true surface, or see on_mesh
   std::array<bool, 4> on_mesh{};                    // false: met with the Model Points' plane
   std::array<Eigen::Vector3d, 4> model_points_map;  // true Model Points
-  std::array<double, 4> error_px{};                 // chosen pixel vs true Model Point's pixel
+  // Where the perfect ray (through the true Model Point's pixel) lands: the Model Point on the
+  // true surface. With model error the Model Point floats up to the error off the surface, where
+  // no light can land; the error is measured against this instead, as the area figures are.
+  std::array<Eigen::Vector3d, 4> surface_points_map;
+  std::array<double, 4> error_px{};  // chosen pixel vs true Model Point's pixel
+  double error_mm(int i) const { return 1000.0 * (landed_map[i] - surface_points_map[i]).norm(); }
 };
 
 // `alone` holds the target's true mesh only, in the map frame.

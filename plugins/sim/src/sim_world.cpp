@@ -1073,7 +1073,7 @@ std::optional<ProjectionTruth> SimWorld::evaluate_projection(
       impl_->mission->robot.projector.intrinsics, projector_px);
   ProjectionTruth out;
   for (int i = 0; i < 4; ++i) {
-    out.error_mm[i] = 1000.0 * (truth.landed_map[i] - truth.model_points_map[i]).norm();
+    out.error_mm[i] = truth.error_mm(i);
     out.error_px[i] = truth.error_px[i];
   }
   const Impl::Object& object = impl_->object(*t);

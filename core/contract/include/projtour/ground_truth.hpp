@@ -13,7 +13,9 @@ namespace projtour {
 
 struct ProjectionTruth {
   // Per Model Point: where the content corner really lands on the target against where the
-  // Model Point truly is (mm), and the same in projector pixels.
+  // Model Point truly is on the target's surface (where the perfect ray through it lands; a
+  // Model Point of an imperfect model floats off the surface) (mm), and the same in projector
+  // pixels.
   std::array<double, 4> error_mm{};
   std::array<double, 4> error_px{};
   // Over the whole content area, so nothing passes by landing four corners well: a grid of
