@@ -43,9 +43,6 @@ states:
           failed: skip_target
       align:
         behaviour: align
-        # verify's colour camera decides whether the content lands; the fit's own gate refuses
-        # only what is plainly not the target (a rough scan of the model fits at about 0.5)
-        params: {min_inlier_fraction: 0.4}
         on:
           succeeded: calibrate
           poor_fit: [capture, aim, skip_target]
@@ -74,8 +71,7 @@ states:
           failed: skip_target
       wait:                 # for the beam to clear
         behaviour: wait
-        retries: 2
-        params: {duration_s: 5}
+        retries: 2          # five seconds each (wait's default duration_s)
         on:
           succeeded: verify
           failed: skip_target

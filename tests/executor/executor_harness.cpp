@@ -72,7 +72,9 @@ std::vector<std::string> happy_visit(const std::string& t) {
               leaf("visit/navigate", "succeeded", "visit/aim", t),
               leaf("visit/aim", "succeeded", "visit/capture", t),
               leaf("visit/capture", "succeeded", "visit/align", t),
-              leaf("visit/align", "succeeded", "visit/project", t),
+              leaf("visit/align", "succeeded", "visit/calibrate", t),
+              leaf("visit/calibrate", "succeeded", "visit/verify", t),
+              leaf("visit/verify", "verified", "visit/project", t),
               leaf("visit/project", "succeeded", "visit/next", t),
               leaf("visit/next", "succeeded", "finish", t),
               {"exit visit @" + t}});
@@ -85,6 +87,10 @@ const std::map<std::string, std::vector<std::string>>& tour_kinds() {
       {"aim", {"succeeded", "out_of_reach"}},
       {"capture", {"succeeded", "no_frame"}},
       {"align", {"succeeded", "poor_fit", "no_target"}},
+      {"calibrate", {"succeeded", "off_screen", "too_few_points", "poor_fit", "no_frame"}},
+      {"verify",
+       {"verified", "out_of_tolerance", "occluded", "not_seen", "off_screen", "no_frame"}},
+      {"wait", {"succeeded"}},
       {"project", {"succeeded", "off_screen"}},
       {"next", {"succeeded"}},
       {"scripted", {"succeeded"}},
@@ -118,6 +124,7 @@ Harness::Harness(std::vector<std::string> target_ids) {
                      : InProcessCatalog::Validator());
   }
   scripts_["__defaults"] = default_params(scripted_param_specs());
+  script("verify", "verified");  // verify's success is "verified"
 }
 
 void Harness::script(const std::string& kind, const std::string& outcomes, long long ticks,

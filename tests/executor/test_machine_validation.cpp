@@ -175,7 +175,7 @@ TEST(MachineValidation, DefaultMachineIsValidAndDrawsClusters) {
   Harness h;
   h.load_default();
   ASSERT_TRUE(h.machine.has_value());
-  EXPECT_EQ(h.machine->leaves().size(), 7u);
+  EXPECT_EQ(h.machine->leaves().size(), 10u);
   const StateSpec* align = h.machine->find("tour/visit/align");
   ASSERT_NE(align, nullptr);
   ASSERT_NE(align->transition("poor_fit"), nullptr);

@@ -44,7 +44,9 @@ TEST(Transitions, AlignPoorFitRecapturesThenSucceeds) {
                                    leaf("visit/capture", "succeeded", "visit/align", t),
                                    leaf("visit/align", "poor_fit", "visit/capture", t),
                                    leaf("visit/capture", "succeeded", "visit/align", t),
-                                   leaf("visit/align", "succeeded", "visit/project", t),
+                                   leaf("visit/align", "succeeded", "visit/calibrate", t),
+                                   leaf("visit/calibrate", "succeeded", "visit/verify", t),
+                                   leaf("visit/verify", "verified", "visit/project", t),
                                    leaf("visit/project", "succeeded", "visit/next", t),
                                    leaf("visit/next", "succeeded", "finish", t),
                                    {"exit visit @rabbit"},
@@ -55,8 +57,8 @@ TEST(Transitions, AlignPoorFitRecapturesThenSucceeds) {
 
 TEST(Transitions, RetriesExhaustedSkipTargetThenNextTarget) {
   Harness h({"rabbit", "pillar"});
-  // Four poor fits: re-capture twice (capture's retries), re-aim once (aim's), then skip.
-  h.script("align", "poor_fit,poor_fit,poor_fit,poor_fit,succeeded");
+  // Five poor fits: re-capture twice (capture's retries), re-aim twice (aim's), then skip.
+  h.script("align", "poor_fit,poor_fit,poor_fit,poor_fit,poor_fit,succeeded");
   h.load_default();
   h.build();
   EXPECT_EQ(h.run(), TourOutcome::completed_with_skips);
@@ -72,6 +74,9 @@ TEST(Transitions, RetriesExhaustedSkipTargetThenNextTarget) {
                                    leaf("visit/align", "poor_fit", "visit/aim", t),
                                    leaf("visit/aim", "succeeded", "visit/capture", t),
                                    leaf("visit/capture", "succeeded", "visit/align", t),
+                                   leaf("visit/align", "poor_fit", "visit/aim", t),
+                                   leaf("visit/aim", "succeeded", "visit/capture", t),
+                                   leaf("visit/capture", "succeeded", "visit/align", t),
                                    leaf("visit/align", "poor_fit", "skip_target", t),
                                    {"exit visit @rabbit"},
                                    happy_visit("pillar"),
@@ -79,7 +84,7 @@ TEST(Transitions, RetriesExhaustedSkipTargetThenNextTarget) {
   const auto& rabbit = h.executor->records().at(0);
   EXPECT_EQ(rabbit.outcome, "skipped");
   EXPECT_EQ(rabbit.reason, "poor_fit");
-  EXPECT_EQ(rabbit.retries, 3);
+  EXPECT_EQ(rabbit.retries, 4);
   EXPECT_EQ(h.executor->records().at(1).outcome, "projected");
   EXPECT_EQ(exit_code(h.executor->outcome()), 3);
 }
@@ -256,7 +261,7 @@ TEST(Transitions, UndeclaredOutcomeBecomesFailed) {
   h.load_default();
   h.build();
   EXPECT_EQ(h.run(), TourOutcome::completed_with_skips);
-  EXPECT_EQ(h.recorder.lines()[19], "outcome visit/project failed @rabbit");
+  EXPECT_EQ(h.recorder.lines()[27], "outcome visit/project failed @rabbit");
   EXPECT_NE(h.executor->records()[0].reason.find("does not declare: \"applause\""),
             std::string::npos);
 }
@@ -274,7 +279,9 @@ TEST(Transitions, NavigateLostRelocalizesThenNavigatesAgain) {
                                    leaf("visit/navigate", "succeeded", "visit/aim", t),
                                    leaf("visit/aim", "succeeded", "visit/capture", t),
                                    leaf("visit/capture", "succeeded", "visit/align", t),
-                                   leaf("visit/align", "succeeded", "visit/project", t),
+                                   leaf("visit/align", "succeeded", "visit/calibrate", t),
+                                   leaf("visit/calibrate", "succeeded", "visit/verify", t),
+                                   leaf("visit/verify", "verified", "visit/project", t),
                                    leaf("visit/project", "succeeded", "visit/next", t),
                                    leaf("visit/next", "succeeded", "finish", t),
                                    {"exit visit @rabbit"},
@@ -383,7 +390,9 @@ TEST(Transitions, StartFromAnyState) {
   EXPECT_EQ(h.run(), TourOutcome::completed);
   const std::string t = "pillar";
   ASSERT_SEQUENCE(h.recorder, seq({{"enter tour", "enter visit @pillar"},
-                                   leaf("visit/align", "succeeded", "visit/project", t),
+                                   leaf("visit/align", "succeeded", "visit/calibrate", t),
+                                   leaf("visit/calibrate", "succeeded", "visit/verify", t),
+                                   leaf("visit/verify", "verified", "visit/project", t),
                                    leaf("visit/project", "succeeded", "visit/next", t),
                                    leaf("visit/next", "succeeded", "finish", t),
                                    {"exit visit @pillar"},
@@ -597,7 +606,7 @@ TEST(Transitions, MissionTimeAdvancesByTheTick) {
   h.run();
   // Navigate ends on its 20th tick; each later leaf on its first.
   EXPECT_DOUBLE_EQ(h.recorder.events[3].t_s, 2.0);
-  EXPECT_DOUBLE_EQ(h.recorder.events.back().t_s, 2.0 + 0.1 * 5);
+  EXPECT_DOUBLE_EQ(h.recorder.events.back().t_s, 2.0 + 0.1 * 7);
 }
 
 // Counts its updates on the blackboard; may refuse to start.
@@ -684,9 +693,9 @@ TEST(Transitions, DriversGetMissionTimeAndAreSafeStoppedAtTheEnd) {
   h.load_default();
   h.build();
   EXPECT_EQ(h.run(), TourOutcome::completed);
-  ASSERT_EQ(base->times.size(), 8u);  // 3 navigate ticks + one for each later leaf
+  ASSERT_EQ(base->times.size(), 10u);  // 3 navigate ticks + one for each later leaf
   EXPECT_DOUBLE_EQ(base->times.front(), 0.05);
-  EXPECT_DOUBLE_EQ(base->times.back(), 0.40);
+  EXPECT_DOUBLE_EQ(base->times.back(), 0.50);
   EXPECT_EQ(base->safe_stops, 1);
 }
 

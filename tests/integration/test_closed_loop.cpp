@@ -102,5 +102,33 @@ TEST_F(ClosedLoop, PoleInFrontOfTheSignIsNeverReportedProjected) {
   EXPECT_LT(t.at("observed_light_on_target").get<double>(), 0.95);
 }
 
+// A failed decode: daylight floods the rabbit's corner and the Gray code drowns in it. The
+// calibrate step says so (too_few_points, keeping the calibration believed so far), the machine
+// re-captures and tries again, then lets verify judge with the old calibration; verify cannot see
+// its dots either, and the visit is skipped with the reason -- never projected unverified.
+TEST_F(ClosedLoop, FailedDecodeRecapturesThenVerifiesWithTheOldCalibration) {
+  const DryRunResult r = dry_run("w_daylight.yaml", "run");
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  const auto chain = outcome_chain(r.events, "rabbit");
+  const std::string joined = join(chain);
+  EXPECT_TRUE(std::regex_search(joined, std::regex("^navigate:succeeded > aim:succeeded > "
+                                                   "capture:succeeded > align:succeeded > "
+                                                   "calibrate:too_few_points > capture:succeeded")))
+      << joined;
+  EXPECT_NE(joined.find("verify:"), std::string::npos) << joined;
+  EXPECT_EQ(joined.find("project:"), std::string::npos) << joined;
+  for (const StepOutcome& s : step_outcomes(r.events, "rabbit")) {
+    if (s.step == "calibrate") {
+      EXPECT_TRUE(
+          std::regex_search(s.message, std::regex("keeping the calibration believed so far")))
+          << s.message;
+    }
+  }
+  const Json& t = report_target(r.report, "rabbit");
+  EXPECT_EQ(t.at("outcome").get<std::string>(), "skipped") << t.dump();
+  EXPECT_FALSE(t.at("calibration").at("adopted").get<bool>()) << t.dump();
+  EXPECT_EQ(report_target(r.report, "open-day-sign").at("outcome").get<std::string>(), "projected");
+}
+
 }  // namespace
 }  // namespace projtour::integration

@@ -28,7 +28,7 @@ class Faults : public DryRunTest {
     const auto chain = outcome_chain(r.events, kNext);
     EXPECT_EQ(join(chain),
               "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
-              "project:succeeded > next:succeeded > finish")
+              "calibrate:succeeded > verify:verified > project:succeeded > next:succeeded > finish")
         << "the target after the fault";
     int shown_on_next = 0;
     for (const Json& e : read_jsonl(r.dir / "sim_projector_log.jsonl")) {
@@ -107,15 +107,16 @@ TEST_F(Faults, AFaultOnARevisitActsOnTheRevisitOnly) {
   EXPECT_EQ(again.at("reason").get<std::string>().rfind("no_frame:", 0), 0u) << again.dump();
 }
 
-// The target is gone: align finds no points where it should stand, re-aims once (aim's one
-// retry), finds nothing again and the target is skipped with align's reason.
+// The target is gone: align finds no points where it should stand, re-aims twice (aim's
+// retries), finds nothing again and the target is skipped with align's reason.
 TEST_F(Faults, TargetMissingReAimsThenSkips) {
   const DryRunResult r = run_fault("w_target_missing.yaml", 3);
   EXPECT_EQ(join(outcome_chain(r.events, kFaulted)),
             "navigate:succeeded > aim:succeeded > capture:succeeded > align:no_target > "
+            "aim:succeeded > capture:succeeded > align:no_target > "
             "aim:succeeded > capture:succeeded > align:no_target > skip_target");
   expect_skipped(r, "^no_target: 0 points within [0-9.]+ m of the expected target");
-  EXPECT_EQ(report_target(r.report, kFaulted).at("retries").get<long long>(), 1);
+  EXPECT_EQ(report_target(r.report, kFaulted).at("retries").get<long long>(), 2);
 }
 
 // A board hangs between the stand-off pose and the rabbit (above the laser plane, so navigation
@@ -125,6 +126,7 @@ TEST_F(Faults, OccluderIsNotProjectedOn) {
   const DryRunResult r = run_fault("w_occluder.yaml", 3);
   EXPECT_EQ(join(outcome_chain(r.events, kFaulted)),
             "navigate:succeeded > aim:succeeded > capture:succeeded > align:no_target > "
+            "aim:succeeded > capture:succeeded > align:no_target > "
             "aim:succeeded > capture:succeeded > align:no_target > skip_target");
   expect_skipped(r, "^no_target: [0-9]+ points within [0-9.]+ m of the expected target");
 }
@@ -148,12 +150,14 @@ TEST_F(Faults, KidnappedRobotSkipsTheTargetAndRecoversByTheNext) {
   EXPECT_EQ(r.exit_code, 3) << r.err;
   EXPECT_EQ(join(outcome_chain(r.events, kFaulted)),
             "navigate:succeeded > aim:succeeded > capture:succeeded > align:no_target > "
+            "aim:succeeded > capture:succeeded > align:no_target > "
             "aim:succeeded > capture:succeeded > align:no_target > skip_target");
   expect_skipped(r, "^no_target: 0 points within [0-9.]+ m of the expected target");
 
   const auto next = outcome_chain(r.events, kNext);
   const std::string tail =
-      "aim:succeeded > capture:succeeded > align:succeeded > project:succeeded > "
+      "aim:succeeded > capture:succeeded > align:succeeded > calibrate:succeeded > verify:verified "
+      "> project:succeeded > "
       "next:succeeded > finish";
   EXPECT_TRUE(join(next) == "navigate:succeeded > " + tail ||
               join(next) == "navigate:lost > relocalize:succeeded > navigate:succeeded > " + tail)
@@ -180,7 +184,8 @@ TEST_F(Faults, ProjectorFailureSkips) {
   const DryRunResult r = run_fault("w_projector_failure.yaml", 3);
   EXPECT_EQ(join(outcome_chain(r.events, kFaulted)),
             "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
-            "project:failed > skip_target");
+            "calibrate:failed > skip_target");
+  // The lamp fails at the first show: the structured light's first pattern.
   expect_skipped(r, "^failed: start failed: simulated projector: lamp failure$");
   for (const Json& e : read_jsonl(r.dir / "sim_projector_log.jsonl")) {
     EXPECT_FALSE(e.at("event").get<std::string>() == "show" && e.at("target").is_string() &&

@@ -129,7 +129,8 @@ TEST_F(InProcessTest, PauseThenCancelInProjectLightsNothingAfterThePause) {
   EXPECT_EQ(run_->run_to_end(), TourOutcome::interrupted);
   EXPECT_EQ(run_->outcomes("rabbit"),
             (std::vector<std::string>{"navigate:succeeded", "aim:succeeded", "capture:succeeded",
-                                      "align:succeeded", "project:cancelled"}));
+                                      "align:succeeded", "calibrate:succeeded", "verify:verified",
+                                      "project:cancelled"}));
   EXPECT_EQ(run_->device_calls_from(after_pause),
             (std::vector<std::string>{"projector blank", "projector blank", "pan_tilt safe_stop",
                                       "projector safe_stop"}));

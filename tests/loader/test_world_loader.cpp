@@ -109,11 +109,12 @@ TEST_F(WorldLoader, FaultOnUnknownTarget) {
 }
 
 TEST_F(WorldLoader, UnknownFaultType) {
-  EXPECT_THAT(world_errors(replace(kWorld, "frame_dropout", "dropout")),
-              ElementsAre(dir + "/w.yaml:10:28: faults[0].type: expected one of frame_dropout, "
-                                "target_missing, occluder, blocked_path, kidnap, "
-                                "camera_disconnect, projector_failure, target_nudge, pole, got "
-                                "\"dropout\""));
+  EXPECT_THAT(
+      world_errors(replace(kWorld, "frame_dropout", "dropout")),
+      ElementsAre(dir + "/w.yaml:10:28: faults[0].type: expected one of frame_dropout, "
+                        "target_missing, occluder, blocked_path, kidnap, "
+                        "camera_disconnect, projector_failure, target_nudge, pole, daylight, got "
+                        "\"dropout\""));
 }
 
 TEST_F(WorldLoader, FaultValueNotANumber) {

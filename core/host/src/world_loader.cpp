@@ -13,7 +13,7 @@ using loader::Sign;
 
 const std::vector<std::string> kFaultTypes = {
     "frame_dropout",     "target_missing",    "occluder",     "blocked_path", "kidnap",
-    "camera_disconnect", "projector_failure", "target_nudge", "pole"};
+    "camera_disconnect", "projector_failure", "target_nudge", "pole",         "daylight"};
 
 // Fault types whose numbers are checked here, by name and sign. The others' numbers need only be
 // numbers (what they mean is the simulator's business, and older files carry unused ones).
@@ -24,6 +24,7 @@ struct FaultNumber {
 const std::map<std::string, std::vector<FaultNumber>> kCheckedFaults = {
     {"pole",
      {{"distance_m", Sign::positive}, {"diameter_m", Sign::positive}, {"offset_m", Sign::any}}},
+    {"daylight", {{"lux", Sign::positive}}},
 };
 
 std::vector<std::string> target_ids(const MissionSpec& mission) {

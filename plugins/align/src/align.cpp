@@ -204,7 +204,9 @@ const projtour_param_desc kAlignParams[] = {
     {"crop_margin_m", "number", "0.1",
      "the frame is cropped to the model's bounding sphere plus this around the guess"},
     {"min_points", "integer", "500", "fewer points in the crop: no_target"},
-    {"min_inlier_fraction", "number", "0.6", "quality gate: less is a poor_fit"},
+    {"min_inlier_fraction", "number", "0.4",
+     "quality gate: less is a poor_fit (verify's colour camera decides whether the content lands; "
+     "this refuses only what is plainly not the target, a rough scan fitting at about 0.5)"},
     {"max_rmse_mm", "number", "5.0", "quality gate: more is a poor_fit"},
     {"inlier_distance_m", "number", "0.006",
      "a visible model point within this of its scene point is an inlier"},

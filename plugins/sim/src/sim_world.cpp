@@ -960,6 +960,14 @@ std::optional<ColourFrame> SimWorld::grab_colour() {
   w.colour_frame_due_s.reset();
   if (here != nullptr) ++here->colour_frames_here;
   ColourRenderer& renderer = w.colour();
+  ColourLight light = w.colour_light;
+  if (here != nullptr) {
+    if (const FaultSpec* f = w.fault(here->spec->id, "daylight")) {
+      light.room_lux = fault_value(*f, "lux", 20000.0);
+    }
+  }
+  // set_light drops the kept geometry: only when the light really changes.
+  if (light.room_lux != renderer.light().room_lux) renderer.set_light(light);
   renderer.render(w.scene, w.scene_version, true_T_map_camera(), true_T_map_projector(),
                   w.lit ? &w.shown : nullptr, w.colour_radiance);
   const double max_ms = w.max_colour_exposure_ms();

@@ -50,7 +50,8 @@ struct PanTiltSpec {
 };
 
 // The Kinect v1 colour camera (defaults: 640x480, Burrus' calibration of its lens). Its optical
-// frame is the robot's `camera` frame; the depth camera sits at -depth_to_color_m in it.
+// frame is the robot's `camera` frame; the depth camera sits at +depth_to_color_m in it
+// (p_camera = p_depth + depth_to_color_m).
 struct ColourCameraSpec {
   PinholeModel intrinsics{
       640, 480, 525.0, 525.0, 319.5, 239.5, {0.2624, -0.9531, -0.0054, 0.0026, 1.1633}};

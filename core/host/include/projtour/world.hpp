@@ -16,7 +16,8 @@ namespace projtour {
 struct FaultSpec {
   std::string target;  // target id
   std::string type;    // frame_dropout | target_missing | occluder | blocked_path | kidnap |
-                       // camera_disconnect | projector_failure | target_nudge | pole
+                       // camera_disconnect | projector_failure | target_nudge | pole |
+                       // daylight
                        // (pole's numbers are checked when loaded: distance_m > 0,
                        // diameter_m > 0, offset_m; all documented in atrium_faults.yaml)
   std::map<std::string, double> values;  // type-specific numbers (fraction, distance_m, ...)

@@ -30,6 +30,10 @@
 //                      the projector's light and shadows what is behind, and the laser and the
 //                      bumper meet it (unless it stands on the stand-off pose itself, where it
 //                      would be blocked_path: then only the cameras and the light meet it).
+//   daylight           lux (20000)
+//                      sunlight through a window floods the target's surroundings: the colour
+//                      camera's room light is that bright while the target is the active one
+//                      (the structured light and the verification dots drown in it).
 // Faults other than the static obstacles (target_missing, occluder, blocked_path, pole) act while
 // their target is the one the robot is at: the nearest target within its stand-off + 1.5 m.
 #include <Eigen/Geometry>
