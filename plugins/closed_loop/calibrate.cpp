@@ -132,19 +132,10 @@ void Calibrate::start(Context& ctx) {
 
 std::optional<Outcome> Calibrate::tick(Context& ctx) {
   if (early_) return early_;
-  if (ctx.cancel_requested()) {
-    capture_.finish(ctx);
-    return Outcome{kOutcomeCancelled, "cancelled during the structured-light sequence"};
+  if (auto ended = capture_.step(ctx, settings_->frame_timeout_s, "the structured light")) {
+    return ended;
   }
-  if (capture_.stalled(ctx, settings_->frame_timeout_s)) {
-    capture_.finish(ctx);
-    return Outcome{"no_frame", target_prefix(ctx) + "no colour frame within " +
-                                   fixed(settings_->frame_timeout_s, 1) + " s of showing pattern " +
-                                   std::to_string(capture_.frames().size() + 1) + " of " +
-                                   std::to_string(sequence_->size())};
-  }
-  if (!capture_.tick(ctx)) return std::nullopt;
-  capture_.finish(ctx);
+  if (!capture_.done()) return std::nullopt;
   const Outcome outcome = measure(ctx);
   publish(ctx);
   return outcome;

@@ -1,5 +1,7 @@
 #include "lit_capture.hpp"
 
+#include <sstream>
+
 namespace projtour::closed_loop {
 
 void LitCapture::start(Context& ctx, int count, FrameSource source, double hold_s,
@@ -24,7 +26,26 @@ void LitCapture::show_next(Context& ctx) {
   shown_at_state_s_ = ctx.state_elapsed_s();
 }
 
-bool LitCapture::tick(Context& ctx) {
+std::optional<Outcome> LitCapture::step(Context& ctx, double timeout_s,
+                                        const std::string& showing) {
+  if (ctx.cancel_requested()) {
+    finish(ctx);
+    return Outcome{kOutcomeCancelled, "cancelled while showing " + showing};
+  }
+  if (active_ && ctx.state_elapsed_s() - shown_at_state_s_ > timeout_s) {
+    finish(ctx);
+    std::ostringstream s;
+    s.precision(1);
+    s << std::fixed << (ctx.target ? "target " + ctx.target->id + ": " : std::string())
+      << "no colour frame within " << timeout_s << " s of showing " << showing << " (frame "
+      << frames_.size() + 1 << " of " << count_ << ")";
+    return Outcome{"no_frame", s.str()};
+  }
+  if (take(ctx)) finish(ctx);
+  return std::nullopt;
+}
+
+bool LitCapture::take(Context& ctx) {
   if (!active_) return false;
   while (auto frame = ctx.drivers().colour_camera->grab()) {
     // A frame exposed (even partly) before the pattern had settled shows the previous one.
@@ -42,10 +63,6 @@ bool LitCapture::tick(Context& ctx) {
     break;
   }
   return false;
-}
-
-bool LitCapture::stalled(const Context& ctx, double limit_s) const {
-  return active_ && ctx.state_elapsed_s() - shown_at_state_s_ > limit_s;
 }
 
 void LitCapture::pause(Context& ctx) {

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "projtour/behaviour.hpp"
 #include "projtour/colour_frame.hpp"
 #include "projtour/context.hpp"
 
@@ -20,10 +21,12 @@ class LitCapture {
   // Frames 0..count-1 from `source`; the colour camera's exposure is fixed at exposure_ms for
   // the sequence (dark and lit frames are compared pixel by pixel).
   void start(Context& ctx, int count, FrameSource source, double hold_s, double exposure_ms);
-  // True once every frame has its colour frame. Throws DriverError from the devices.
-  bool tick(Context& ctx);
-  // No usable colour frame came for `limit_s` of state time after a show.
-  bool stalled(const Context& ctx, double limit_s) const;
+  // One tick of the sequence: the outcome that ends it early -- cancelled, or "no_frame" when
+  // no usable colour frame came within timeout_s of state time after a show (`showing` names
+  // what was up) -- else nullopt; done() once every frame has its colour frame. Throws
+  // DriverError from the devices.
+  std::optional<Outcome> step(Context& ctx, double timeout_s, const std::string& showing);
+  bool done() const { return static_cast<int>(frames_.size()) == count_ && !active_; }
   // A pause blanks the projector and forgets what was taken: the sequence starts again on
   // resume, since the scene may have changed meanwhile.
   void pause(Context& ctx);
@@ -36,6 +39,7 @@ class LitCapture {
   double duration_s() const { return last_frame_s_ - first_shown_s_; }
 
  private:
+  bool take(Context& ctx);
   void show_next(Context& ctx);
 
   FrameSource source_;

@@ -139,18 +139,10 @@ void Verify::start(Context& ctx) {
 
 std::optional<Outcome> Verify::tick(Context& ctx) {
   if (early_) return early_;
-  if (ctx.cancel_requested()) {
-    capture_.finish(ctx);
-    return Outcome{kOutcomeCancelled, "cancelled while verifying"};
+  if (auto ended = capture_.step(ctx, settings_->frame_timeout_s, "the verification pattern")) {
+    return ended;
   }
-  if (capture_.stalled(ctx, settings_->frame_timeout_s)) {
-    capture_.finish(ctx);
-    return Outcome{"no_frame", target_prefix(ctx) + "no colour frame within " +
-                                   fixed(settings_->frame_timeout_s, 1) +
-                                   " s of showing the verification pattern"};
-  }
-  if (!capture_.tick(ctx)) return std::nullopt;
-  capture_.finish(ctx);
+  if (!capture_.done()) return std::nullopt;
   const Outcome outcome = measure(ctx);
   ctx.blackboard().set(keys::kVerify, result_);
   write_view(ctx);

@@ -23,7 +23,8 @@ using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
 
 const std::vector<std::string> kTargets = {"rabbit", "open-day-sign"};
-const std::vector<std::string> kSteps = {"navigate", "aim", "capture", "align", "project", "next"};
+const std::vector<std::string> kSteps = {"navigate",  "aim",    "capture", "align",
+                                         "calibrate", "verify", "project", "next"};
 
 // When to send SIGINT: right after the child writes the first line containing `marker` (a piece
 // of one events.jsonl line), or, without a marker, right after it installs its SIGINT handler.
