@@ -127,8 +127,9 @@ ProjectorFit fit_projector_pose(const std::vector<Eigen::Vector3d>& points_camer
         std::max(settings.ransac_iterations, 1), static_cast<float>(settings.ransac_threshold_px),
         0.999, ransac_inliers, cv::SOLVEPNP_EPNP);
     if (found) pose = Pose{cv::Vec3d(rvec.reshape(1, 3)), cv::Vec3d(tvec.reshape(1, 3))};
-    // The belief competes with RANSAC's sample: after a small disturbance it is usually the
-    // better start, and it cannot be worse than a bad sample from a noisy minimal set.
+    // The belief competes with RANSAC's model: whichever explains more correspondences starts
+    // the refinement (a model from a noisy 5-point sample can explain fewer than a belief a few
+    // millimetres off).
     const std::vector<int> guess_inliers =
         inliers_of(squared_errors(in, guess), settings.ransac_threshold_px);
     if (found && ransac_inliers.size() >= guess_inliers.size()) {

@@ -25,7 +25,12 @@ struct ProjectorFit {
   std::string problem;  // why there is no fit
 };
 
-// `guess` seeds RANSAC's refinement (the calibration believed now); deterministic.
+// `guess` is the calibration believed now: RANSAC's model (EPnP on minimal samples) and the
+// guess each get the correspondences within ransac_threshold_px, the larger set is refined by
+// Levenberg-Marquardt (cv::solvePnPRefineLM) and renewed until it stops changing. Problems: the
+// two lists differ in length, fewer points than min_inliers ("too few points: N (need M)"),
+// fewer inliers ("too few inliers: N (need M)"). Deterministic: cv::theRNG() is held at a fixed
+// state for the call and given back as it was.
 ProjectorFit fit_projector_pose(const std::vector<Eigen::Vector3d>& points_camera,
                                 const std::vector<Eigen::Vector2d>& projector_px,
                                 const PinholeModel& projector,
