@@ -21,6 +21,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEMO = os.path.join(ROOT, "missions", "demo_tour.yaml")
 SHORT = os.path.join(ROOT, "tests", "integration", "data", "short_tour.yaml")
 FAULT_DIR = os.path.join(ROOT, "tests", "integration", "data")
+REVISIT = os.path.join(FAULT_DIR, "revisit_tour.yaml")
 
 
 def world_text(seed, calibration=(1.0, 0.1), offset=(0.05, 3.0), noise_mm=None, faults=None):
@@ -116,7 +117,9 @@ def main():
     if "faults" in a.only:
         for f in sorted(os.listdir(FAULT_DIR)):
             if f.startswith("w_") and f.endswith(".yaml"):
-                cases.append(("faults", f, SHORT, os.path.join(FAULT_DIR, f), 11))
+                # The revisit world's faults name the revisit tour's second visit.
+                mission = REVISIT if f.startswith("w_revisit") else SHORT
+                cases.append(("faults", f, mission, os.path.join(FAULT_DIR, f), 11))
 
     def go(i_case):
         i, (family, name, mission, world, seed) = i_case
