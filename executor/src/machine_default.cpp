@@ -33,6 +33,7 @@ states:
         on:
           succeeded: capture
           out_of_reach: skip_target
+          reapproach: [navigate, skip_target]   # the content fits only from the true stand-off
           failed: skip_target
       capture:
         behaviour: capture
@@ -64,6 +65,7 @@ states:
         on:
           verified: project
           out_of_tolerance: [calibrate, skip_target]
+          misaligned: [verify, skip_target]       # the outline slid the pose; look again
           not_seen: [capture, skip_target]
           occluded: [wait, skip_target]
           off_screen: [aim, skip_target]

@@ -3,7 +3,10 @@
 // content), or the model origin with `aim_at: origin`. The projector stays blank while the head
 // moves; the step succeeds once the driver reports the angles reached and `settle_s` has passed.
 // Aiming again after align (re-aim: the aligned pose put a Model Point off the projector image)
-// aims at the aligned pose rather than the map's, and through the calibration believed now.
+// aims at the aligned pose rather than the map's, and through the calibration believed now; when
+// even then the content would not fit the projector image (the target stands nearer than the map
+// has it), the outcome is reapproach: navigate takes the base to the stand-off from the aligned
+// pose.
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -11,6 +14,7 @@
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/kinematics.hpp"
 #include "projtour/plugin_author.hpp"
+#include "projtour/projection.hpp"
 
 namespace projtour {
 namespace {
@@ -26,7 +30,9 @@ std::string fmt_angles(const JointAngles& q) {
 class Aim : public Behaviour {
  public:
   Aim(const Params& params, const RunContext& run)
-      : settle_s_(params.number("settle_s")), aim_at_origin_(params.string("aim_at") == "origin") {
+      : settle_s_(params.number("settle_s")),
+        edge_margin_px_(params.number("edge_margin_px")),
+        aim_at_origin_(params.string("aim_at") == "origin") {
     if (run.mission == nullptr) throw std::invalid_argument("aim needs the mission's robot");
   }
 
@@ -53,16 +59,13 @@ class Aim : public Behaviour {
     }
     const HeadKinematics kinematics =
         believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration));
-    Eigen::Vector3d p_base;
-    const AlignResult* aligned = ctx.blackboard().find(keys::kAlign);
-    if (aligned != nullptr && aligned->T_camera_model) {
-      // The base has not moved since the capture align fitted (navigate ends the visit's motion).
-      p_base = kinematics.T_base_camera(aligned->joints) * (*aligned->T_camera_model * p_model);
-      ctx.log().debug("aim " + target.id + ": re-aiming at the aligned pose");
-    } else {
-      const Eigen::Isometry3d T_map_base = isometry_from_pose2d(estimate->mean);
-      p_base = T_map_base.inverse() * (target.T_map_model * p_model);
-    }
+    const Eigen::Isometry3d T_map_base = isometry_from_pose2d(estimate->mean);
+    const auto T_map_aligned = aligned_T_map_model(ctx.robot(), ctx.blackboard().find(keys::kAlign),
+                                                   ctx.blackboard().find(keys::kCapture));
+    if (T_map_aligned) ctx.log().debug("aim " + target.id + ": re-aiming at the aligned pose");
+    const Eigen::Isometry3d T_base_model =
+        T_map_base.inverse() * (T_map_aligned ? *T_map_aligned : target.T_map_model);
+    const Eigen::Vector3d p_base = T_base_model * p_model;
     std::string why;
     const auto q = kinematics.aim_projector_at(p_base, &why);
     if (!q) {
@@ -72,6 +75,20 @@ class Aim : public Behaviour {
         << p_base.y() << ", " << p_base.z() << ") m in the base frame is out of reach: " << why;
       early_ = Outcome{"out_of_reach", s.str()};
       return;
+    }
+    if (T_map_aligned) {
+      // Where the target really is, its content may not fit the projector image from this
+      // stand-off at any angle (a target nearer than the map has it): the base re-approaches.
+      const ProjectedQuad quad = project_model_points(
+          target.model_points, kinematics.T_base_projector(*q).inverse() * T_base_model,
+          ctx.robot().projector.intrinsics);
+      const std::string problem =
+          edge_problem(quad, ctx.robot().projector.intrinsics, edge_margin_px_);
+      if (!problem.empty()) {
+        early_ = Outcome{"reapproach", "target " + target.id + ": aimed at its aligned pose, " +
+                                           problem + "; the base re-approaches it"};
+        return;
+      }
     }
     goal_ = *q;
     // Never light the scene while the head sweeps.
@@ -121,6 +138,7 @@ class Aim : public Behaviour {
   }
 
   double settle_s_;
+  double edge_margin_px_;
   bool aim_at_origin_;
   JointAngles goal_;
   std::optional<Outcome> early_;
@@ -135,14 +153,22 @@ void check_params(const Params& params) {
                                 "\"");
   }
   if (params.number("settle_s") < 0) throw std::invalid_argument("settle_s must be >= 0");
+  if (params.number("edge_margin_px") < 0) {
+    throw std::invalid_argument("edge_margin_px must be >= 0");
+  }
 }
 
 const projtour_param_desc kParams[] = {
     {"settle_s", "number", "0.3", "seconds to wait after the head reports its angles reached"},
     {"aim_at", "string", "model_points",
-     "model_points (centroid of the four Model Points) or origin (the model frame's origin)"}};
-const char* const kOutcomes[] = {"succeeded", "out_of_reach"};
+     "model_points (centroid of the four Model Points) or origin (the model frame's origin)"},
+    {"edge_margin_px", "number", "10",
+     "aiming at the aligned pose: a Model Point closer than this to the projector image's edge "
+     "means reapproach (more than calibrate's and verify's margin, so what fits here fits "
+     "there)"}};
+const char* const kOutcomes[] = {"succeeded", "out_of_reach", "reapproach"};
 const projtour_key_desc kKeys[] = {reads(keys::kLocalization), reads_if_present(keys::kAlign),
+                                   reads_if_present(keys::kCapture),
                                    reads_if_present(keys::kCalibration)};
 const projtour_kind_desc kKinds[] = {
     with_keys(behaviour_kind<Aim>("aim",

@@ -61,12 +61,23 @@ const projtour_param_desc kVerifyParams[] = {
     {"tolerance_mm", "number", "-1",
      "largest observed error (mean over the corners) that passes; negative = the target's "
      "tolerance_mm"},
-    {"frame_timeout_s", "number", "1.0", "no colour frame this long after a show: no_frame"}};
-const char* const kVerifyOutcomes[] = {"verified", "out_of_tolerance", "occluded",
+    {"frame_timeout_s", "number", "1.0", "no colour frame this long after a show: no_frame"},
+    {"outline_search_px", "integer", "48",
+     "the target's outline is looked for this far (colour pixels) from where the aligned pose "
+     "puts it"},
+    {"min_outline_matched", "number", "0.45",
+     "share of the model's outline that must meet an image edge for the outline to count"},
+    {"clear_outline_matched", "number", "0.7",
+     "an outline matched this well moves the Model Points by whatever slide it sees; a fainter "
+     "one only by a gross slide"},
+    {"gross_slide_tolerances", "number", "2",
+     "a slide of this many tolerances is gross: any counted outline moves the Model Points, and "
+     "the pose slides (misaligned) before anything else is judged"}};
+const char* const kVerifyOutcomes[] = {"verified", "out_of_tolerance", "misaligned", "occluded",
                                        "not_seen", "off_screen",       "no_frame"};
 const projtour_key_desc kVerifyKeys[] = {reads(keys::kAlign), reads(keys::kCapture),
                                          reads_if_present(keys::kCalibration),
-                                         writes(keys::kVerify)};
+                                         writes(keys::kVerify), writes(keys::kAlign)};
 
 const projtour_param_desc kWaitParams[] = {
     {"duration_s", "number", "5", "seconds to wait, projector blank"}};

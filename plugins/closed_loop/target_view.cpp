@@ -49,23 +49,10 @@ TargetViewOrOutcome look_at_target(Context& ctx, double edge_margin_px) {
     out.view = std::move(v);
     return out;
   }
-  if (!v.quad.on_screen) {
-    out.outcome = Outcome{"off_screen", who + v.quad.problem};
+  const std::string problem = edge_problem(v.quad, projector, edge_margin_px);
+  if (!problem.empty()) {
+    out.outcome = Outcome{"off_screen", who + problem};
     return out;
-  }
-  for (int i = 0; i < 4; ++i) {
-    const Eigen::Vector2d& p = v.quad.pixels[i];
-    const double margin =
-        std::min({p.x(), p.y(), projector.width - 1 - p.x(), projector.height - 1 - p.y()});
-    if (margin < edge_margin_px) {
-      std::ostringstream s;
-      s.precision(1);
-      s << std::fixed << who << "Model Point " << i + 1 << " falls " << margin
-        << " px from the projector image's edge at (" << p.x() << ", " << p.y() << "), closer than "
-        << edge_margin_px << " px";
-      out.outcome = Outcome{"off_screen", s.str()};
-      return out;
-    }
   }
   out.view = std::move(v);
   return out;

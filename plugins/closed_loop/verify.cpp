@@ -1,8 +1,12 @@
 // verify: the colour camera's check of where the content will land, through the very warp
 // project shows it with. Three frames: dark, a dot on each Model Point's pixel, and the content
 // area lit white. The dots are found in the colour image, lifted to 3-D with the registered
-// depth and compared with the Model Points at the aligned pose (observed_error_mm); the lit area
-// shows whether the light lands on the target or on something in front of it.
+// depth and compared with the Model Points where the camera sees the target (observed_error_mm):
+// at the aligned pose slid along their plane by as much as the target's outline in the dark frame
+// stands from the model's (a clear outline's slide always; a faint one's when gross, as ICP leaves
+// a flat face slid along itself). A miss that is the pose's corrects the pose (misaligned: the
+// pose slides, verify looks again).
+// The lit area shows whether the light lands on the target or on something in front of it.
 #include "verify.hpp"
 
 #include <cmath>
@@ -12,6 +16,7 @@
 #include <sstream>
 
 #include "projtour/light_check.hpp"
+#include "projtour/outline_match.hpp"
 #include "projtour/registered_depth.hpp"
 
 namespace projtour::closed_loop {
@@ -23,6 +28,10 @@ struct VerifySettings {
   double min_on_target = 0.95;
   double tolerance_mm = -1.0;  // negative: the target's tolerance_mm
   double frame_timeout_s = 1.0;
+  int outline_search_px = 48;
+  double min_outline_matched = 0.45;
+  double gross_slide_tolerances = 2.0;
+  double clear_outline_matched = 0.7;
 };
 
 static VerifySettings read_verify_settings(const Params& p) {
@@ -33,6 +42,10 @@ static VerifySettings read_verify_settings(const Params& p) {
   s.min_on_target = p.number("min_on_target");
   s.tolerance_mm = p.number("tolerance_mm");
   s.frame_timeout_s = p.number("frame_timeout_s");
+  s.outline_search_px = static_cast<int>(p.integer("outline_search_px"));
+  s.min_outline_matched = p.number("min_outline_matched");
+  s.gross_slide_tolerances = p.number("gross_slide_tolerances");
+  s.clear_outline_matched = p.number("clear_outline_matched");
   if (s.edge_margin_px < 0) throw std::invalid_argument("edge_margin_px: must be >= 0");
   if (s.dot_radius_px < 1 || s.dot_radius_px > 100) {
     throw std::invalid_argument("dot_radius_px: must lie in [1, 100]");
@@ -43,6 +56,18 @@ static VerifySettings read_verify_settings(const Params& p) {
   }
   if (s.tolerance_mm == 0.0) throw std::invalid_argument("tolerance_mm: must not be 0");
   if (!(s.frame_timeout_s > 0)) throw std::invalid_argument("frame_timeout_s: must be > 0");
+  if (s.outline_search_px < 1 || s.outline_search_px > 200) {
+    throw std::invalid_argument("outline_search_px: must lie in [1, 200]");
+  }
+  if (!(s.min_outline_matched > 0.0 && s.min_outline_matched <= 1.0)) {
+    throw std::invalid_argument("min_outline_matched: must lie in (0, 1]");
+  }
+  if (!(s.clear_outline_matched >= s.min_outline_matched && s.clear_outline_matched <= 1.0)) {
+    throw std::invalid_argument("clear_outline_matched: must lie in [min_outline_matched, 1]");
+  }
+  if (!(s.gross_slide_tolerances >= 0.0)) {
+    throw std::invalid_argument("gross_slide_tolerances: must be >= 0");
+  }
   return s;
 }
 
@@ -173,10 +198,44 @@ Outcome Verify::measure(Context& ctx) {
   }
   const light::RegisteredDepth depth =
       light::register_depth(view_->capture->frame, robot.camera.depth_to_color_m, colour);
-
-  const light::LightOnTarget light = light::light_on_target(
-      dark, area, depth, light::model_depth(*view_->model, view_->T_camera_model, colour));
+  const std::vector<float> model_z =
+      light::model_depth(*view_->model, view_->T_camera_model, colour);
+  const light::LightOnTarget light = light::light_on_target(dark, area, depth, model_z);
   result_.light_on_target_fraction = light.on_target_fraction;
+
+  // Where the camera sees the target, from its outline in the dark frame: the Model Points slide
+  // with it along their plane. The depth fixes the face's plane; the outline, where on the plane.
+  const std::array<Eigen::Vector3d, 4>& M = view_->model_points_camera;
+  const Eigen::Vector3d centre = 0.25 * (M[0] + M[1] + M[2] + M[3]);
+  Eigen::Vector3d plane_normal = (M[2] - M[0]).cross(M[3] - M[1]);
+  plane_normal = plane_normal.norm() > 1e-12 ? plane_normal.normalized()
+                                             : Eigen::Vector3d(-centre.normalized());
+  light::OutlineSettings outline_settings;
+  outline_settings.search_px = settings_->outline_search_px;
+  const auto outline = light::match_outline(dark, model_z, outline_settings);
+  Eigen::Vector3d slide = Eigen::Vector3d::Zero();
+  bool clear = false, gross = false;
+  std::string outline_text;
+  if (outline && outline->matched_fraction >= settings_->min_outline_matched) {
+    const Eigen::Vector3d seen =
+        light::slide_for_shift(colour, centre, plane_normal, outline->shift_px);
+    // A clear outline (a sign's, a pillar's sides) resolves a millimetre; a faint one (a rough
+    // bunny's a metre away, its outline the rough surface's own) only a gross slide, beyond
+    // gross_slide_tolerances: the slide ICP leaves a flat face with.
+    clear = outline->matched_fraction >= settings_->clear_outline_matched;
+    gross = 1e3 * seen.norm() > settings_->gross_slide_tolerances * result_.tolerance_mm;
+    if (clear || gross) slide = seen;
+    outline_text = "the outline seen " + fixed(1e3 * seen.norm(), 1) +
+                   " mm from the aligned pose (" + fixed(outline->shift_px.x(), 1) + ", " +
+                   fixed(outline->shift_px.y(), 1) + " px, " +
+                   std::to_string(outline->fixed_directions) + " directions fixed, " +
+                   fixed(100.0 * outline->matched_fraction, 0) + " % matched)";
+  } else {
+    outline_text = outline ? "the outline not matched (" +
+                                 fixed(100.0 * outline->matched_fraction, 0) + " % of it, " +
+                                 fixed(100.0 * settings_->min_outline_matched, 0) + " % needed)"
+                           : "no outline in view";
+  }
 
   // On a small target the four dots lie closer than search_px: each window must hold one dot
   // only, or the centroid of two is reported as each.
@@ -190,7 +249,7 @@ Outcome Verify::measure(Context& ctx) {
   const auto found = light::find_dots(dark, dots, result_.expected_colour_px, search_px);
   std::array<Eigen::Vector2d, 4> observed{};
   int seen = 0;
-  double sum_mm = 0.0;
+  double sum_mm = 0.0, sum_at_pose_mm = 0.0;
   std::string unseen;
   for (int i = 0; i < 4; ++i) {
     if (!found[i]) {
@@ -199,21 +258,26 @@ Outcome Verify::measure(Context& ctx) {
     }
     observed[i] = *found[i];
     // Light lands on the surface, so the error is measured on it: the dot against the Model
-    // Point carried along the camera's ray onto the same surface. A Model Point of a rough
-    // model floats a few millimetres off the real surface, where no light can land.
-    const Eigen::Vector3d& M = view_->model_points_camera[i];
+    // Point carried along the camera's ray onto the same surface (a Model Point of a rough model
+    // floats a few millimetres off the real surface, where no light can land), where the outline
+    // puts it; and, apart, where the aligned pose does: the light's miss of the pose is the
+    // calibration's.
     const Eigen::Vector3d n =
         normal_near(*view_->model, view_->T_camera_model, ctx.target->model_points[i]);
-    const auto p = lift_on_target(depth, colour, *found[i], M, n);
+    const auto on_surface = [&](const Eigen::Vector3d& point) {
+      const auto px = colour.project(point);
+      return (px ? lift_on_target(depth, colour, *px, point, n) : std::nullopt).value_or(point);
+    };
+    const Eigen::Vector3d M_seen = M[i] + slide;
+    const auto p = lift_on_target(depth, colour, *found[i], M_seen, n);
     if (!p) {
       unseen += (unseen.empty() ? "" : ", ") + std::to_string(i + 1) + " (no surface)";
       continue;
     }
-    const Eigen::Vector3d M_surface =
-        lift_on_target(depth, colour, result_.expected_colour_px[i], M, n).value_or(M);
-    const double e_mm = 1e3 * (*p - M_surface).norm();
+    const double e_mm = 1e3 * (*p - on_surface(M_seen)).norm();
     result_.corner_error_mm[i] = e_mm;
     sum_mm += e_mm;
+    sum_at_pose_mm += 1e3 * (*p - on_surface(M[i])).norm();
     ++seen;
   }
   if (seen > 0) result_.observed_colour_px = observed;
@@ -222,19 +286,39 @@ Outcome Verify::measure(Context& ctx) {
   const std::string light_text = fixed(100.0 * light.on_target_fraction, 1) +
                                  " % of the light on the target, " +
                                  fixed(100.0 * light.in_front_fraction, 1) + " % in front of it";
+  // A gross slide corrects the pose, and the next look checks the corrected pose. It comes first:
+  // the light's landing was judged against the model where it is not.
+  const auto correct_pose = [&](const std::string& why) {
+    AlignResult corrected = *ctx.blackboard().find(keys::kAlign);
+    corrected.T_camera_model = Eigen::Translation3d(slide) * view_->T_camera_model;
+    ctx.blackboard().set(keys::kAlign, std::move(corrected));
+    return Outcome{"misaligned", who + why + "; the pose slides with the outline; " + light_text};
+  };
+  if (gross) return correct_pose(outline_text);
   if (light.on_target_fraction < settings_->min_on_target &&
       light.in_front_fraction >= 1.0 - light.on_target_fraction - light.in_front_fraction) {
     return Outcome{"occluded", who + "something stands in the beam: " + light_text + " (at least " +
-                                   fixed(100.0 * settings_->min_on_target, 0) + " % needed)"};
+                                   fixed(100.0 * settings_->min_on_target, 0) + " % needed); " +
+                                   outline_text};
   }
   if (seen < 4) {
     return Outcome{"not_seen", who + "the colour camera did not find Model Point " + unseen +
                                    "'s dot; " + light_text};
   }
-  const std::string error_text =
-      "observed error " + fixed(*result_.observed_error_mm, 2) + " mm (corners " +
-      fixed(*result_.corner_error_mm[0], 1) + ", " + fixed(*result_.corner_error_mm[1], 1) + ", " +
-      fixed(*result_.corner_error_mm[2], 1) + ", " + fixed(*result_.corner_error_mm[3], 1) + " mm)";
+  const std::string error_text = "observed error " + fixed(*result_.observed_error_mm, 2) +
+                                 " mm (corners " + fixed(*result_.corner_error_mm[0], 1) + ", " +
+                                 fixed(*result_.corner_error_mm[1], 1) + ", " +
+                                 fixed(*result_.corner_error_mm[2], 1) + ", " +
+                                 fixed(*result_.corner_error_mm[3], 1) + " mm), " + outline_text;
+  // The light lands where the aligned pose put it and the pose is what misses: slide it. Where
+  // the light misses the aligned pose too, the calibration is mended first.
+  const double at_pose_mm = sum_at_pose_mm / seen;
+  if (*result_.observed_error_mm > result_.tolerance_mm && clear &&
+      1e3 * slide.norm() > 0.5 * result_.tolerance_mm && at_pose_mm <= result_.tolerance_mm) {
+    return correct_pose(error_text + " exceeds the tolerance of " + fixed(result_.tolerance_mm, 1) +
+                        " mm, the light " + fixed(at_pose_mm, 2) +
+                        " mm from the aligned pose's corners");
+  }
   if (*result_.observed_error_mm > result_.tolerance_mm) {
     return Outcome{"out_of_tolerance", who + error_text + " exceeds the tolerance of " +
                                            fixed(result_.tolerance_mm, 1) + " mm; " + light_text};

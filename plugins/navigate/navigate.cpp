@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "projtour/blackboard_keys.hpp"
+#include "projtour/kinematics.hpp"
 #include "projtour/localizer.hpp"
 #include "projtour/occupancy_map.hpp"
 
@@ -68,7 +69,17 @@ void Navigate::start(Context& ctx) {
   if (!ctx.drivers().base) throw std::runtime_error("navigate needs a base driver");
   // The projector stays dark while the base moves.
   if (ctx.drivers().projector) ctx.drivers().projector->blank();
-  goal_ = standoff_pose(*ctx.target);
+  // Back at a target align has measured (aim's reapproach), the stand-off is taken from where the
+  // target really stands, not from where the map has it.
+  if (const auto T_map_model = aligned_T_map_model(ctx.robot(), ctx.blackboard().find(keys::kAlign),
+                                                   ctx.blackboard().find(keys::kCapture))) {
+    TargetSpec measured = *ctx.target;
+    measured.T_map_model = *T_map_model;
+    goal_ = standoff_pose(measured);
+    ctx.log().debug("navigate " + ctx.target->id + ": re-approaching the aligned pose");
+  } else {
+    goal_ = standoff_pose(*ctx.target);
+  }
   planner_ = std::make_unique<PathPlanner>(*map_planner_);
   path_ = PlannedPath{};
   result_ = NavigateResult{};

@@ -9,7 +9,8 @@
 
 namespace projtour::navigate {
 
-// Drives to the current target's stand-off pose. Outcomes: succeeded (the localized estimate
+// Drives to the current target's stand-off pose (from its aligned pose when align has measured
+// it in this visit). Outcomes: succeeded (the localized estimate
 // within the goal tolerance), unreachable (no path), blocked (no progress for blocked_s),
 // timeout, lost (the estimate's standard deviation over lost_std_m).
 class Navigate : public Behaviour {

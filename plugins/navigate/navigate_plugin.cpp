@@ -42,9 +42,12 @@ const projtour_param_desc kRelocalizeParams[] = {
 };
 const char* const kRelocalizeOutcomes[] = {"succeeded", "lost"};
 
-const projtour_key_desc kNavigateKeys[] = {
-    projtour::reads(keys::kLocalization), projtour::reads_if_present(keys::kLocalizationConverged),
-    projtour::reads_if_present(keys::kLaserScan), projtour::writes(keys::kNavigate)};
+const projtour_key_desc kNavigateKeys[] = {projtour::reads(keys::kLocalization),
+                                           projtour::reads_if_present(keys::kLocalizationConverged),
+                                           projtour::reads_if_present(keys::kLaserScan),
+                                           projtour::reads_if_present(keys::kAlign),
+                                           projtour::reads_if_present(keys::kCapture),
+                                           projtour::writes(keys::kNavigate)};
 const projtour_key_desc kRelocalizeKeys[] = {projtour::reads(keys::kLocalization),
                                              projtour::reads(keys::kLocalizationConverged),
                                              projtour::writes(keys::kLocalizationWiden)};

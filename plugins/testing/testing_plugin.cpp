@@ -172,7 +172,7 @@ const projtour_key_desc kLocalizationKeys[] = {writes(keys::kLocalization),
                                                writes(keys::kLocalizationConverged)};
 const char* const kNavigate[] = {"succeeded", "unreachable", "blocked", "timeout", "lost"};
 const char* const kRelocalize[] = {"succeeded", "lost"};
-const char* const kAim[] = {"succeeded", "out_of_reach"};
+const char* const kAim[] = {"succeeded", "out_of_reach", "reapproach"};
 const char* const kCapture[] = {"succeeded", "no_frame"};
 const char* const kAlign[] = {"succeeded", "poor_fit", "no_target"};
 const char* const kProject[] = {"succeeded", "off_screen"};

@@ -112,6 +112,15 @@ HeadKinematics believed_kinematics(const RobotSpec& robot,
       calibration != nullptr ? calibration->projector_mount : robot.projector.mount);
 }
 
+std::optional<Eigen::Isometry3d> aligned_T_map_model(const RobotSpec& robot,
+                                                     const AlignResult* aligned,
+                                                     const CapturedFrame* capture) {
+  if (aligned == nullptr || !aligned->T_camera_model || capture == nullptr) return std::nullopt;
+  const HeadKinematics head(robot);
+  return isometry_from_pose2d(capture->base_estimate.mean) * head.T_base_camera(aligned->joints) *
+         *aligned->T_camera_model;
+}
+
 // The closed form for the mount turned the least to make its optical axis perpendicular to the
 // tilt axis, then Newton on the real mount: the point's ideal projector coordinates (x/z, y/z)
 // driven to zero over (pan, tilt), numeric Jacobian.

@@ -65,6 +65,25 @@ ProjectedQuad project_model_points(const Quad3d& model_points,
   return out;
 }
 
+std::string edge_problem(const ProjectedQuad& quad, const PinholeModel& projector,
+                         double edge_margin_px) {
+  if (!quad.on_screen) return quad.problem;
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector2d& p = quad.pixels[i];
+    const double margin =
+        std::min({p.x(), p.y(), projector.width - 1 - p.x(), projector.height - 1 - p.y()});
+    if (margin < edge_margin_px) {
+      std::ostringstream s;
+      s.precision(1);
+      s << std::fixed << "Model Point " << i + 1 << " falls " << margin
+        << " px from the projector image's edge at (" << p.x() << ", " << p.y() << "), closer than "
+        << edge_margin_px << " px";
+      return s.str();
+    }
+  }
+  return "";
+}
+
 double quad_area_px2(const Quad2d& q) {
   double twice = 0.0;
   for (int i = 0; i < 4; ++i) twice += cross2(q[i], q[(i + 1) % 4]);

@@ -62,4 +62,12 @@ class HeadKinematics {
 // step measured when there is one (the blackboard's keys::kCalibration).
 HeadKinematics believed_kinematics(const RobotSpec& robot, const ProjectorCalibration* calibration);
 
+// The target where align measured it, in the map: the capture's base estimate, the head at the
+// capture's joints (the camera mount is the robot file's: calibration measures only the
+// projector's) and the fitted pose. Absent without a fitted pose. It outlives a move of the
+// base, which the camera frame does not: navigate re-approaches and aim re-aims through it.
+std::optional<Eigen::Isometry3d> aligned_T_map_model(const RobotSpec& robot,
+                                                     const AlignResult* aligned,
+                                                     const CapturedFrame* capture);
+
 }  // namespace projtour

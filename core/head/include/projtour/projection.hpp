@@ -29,6 +29,11 @@ ProjectedQuad project_model_points(const Quad3d& model_points,
                                    const Eigen::Isometry3d& T_projector_model,
                                    const PinholeModel& projector);
 
+// Why the quad does not fit the projector image with edge_margin_px to spare on every side (the
+// quad's own problem when it is off screen or behind), or "" when it does.
+std::string edge_problem(const ProjectedQuad& quad, const PinholeModel& projector,
+                         double edge_margin_px);
+
 // Why a quad cannot carry a homography of a rectangle: "zero area" (below min_area_px2),
 // "self-crossing" or "not convex"; empty when it can. Corners in the content order
 // (top-left, top-right, bottom-right, bottom-left).
