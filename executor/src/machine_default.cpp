@@ -65,6 +65,7 @@ states:
         on:
           verified: project
           out_of_tolerance: [calibrate, skip_target]
+          uncertain: skip_target                  # a rough model: no check can vouch for it
           misaligned: [verify, skip_target]       # the outline slid the pose; look again
           not_seen: [capture, skip_target]
           occluded: [wait, skip_target]

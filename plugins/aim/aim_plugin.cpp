@@ -14,7 +14,6 @@
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/kinematics.hpp"
 #include "projtour/plugin_author.hpp"
-#include "projtour/projection.hpp"
 
 namespace projtour {
 namespace {
@@ -79,11 +78,9 @@ class Aim : public Behaviour {
     if (T_map_aligned) {
       // Where the target really is, its content may not fit the projector image from this
       // stand-off at any angle (a target nearer than the map has it): the base re-approaches.
-      const ProjectedQuad quad = project_model_points(
-          target.model_points, kinematics.T_base_projector(*q).inverse() * T_base_model,
-          ctx.robot().projector.intrinsics);
       const std::string problem =
-          edge_problem(quad, ctx.robot().projector.intrinsics, edge_margin_px_);
+          content_fit_problem(kinematics, ctx.robot().projector.intrinsics, target.model_points,
+                              p_model, T_base_model, edge_margin_px_);
       if (!problem.empty()) {
         early_ = Outcome{"reapproach", "target " + target.id + ": aimed at its aligned pose, " +
                                            problem + "; the base re-approaches it"};

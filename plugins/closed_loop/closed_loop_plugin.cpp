@@ -70,11 +70,16 @@ const projtour_param_desc kVerifyParams[] = {
     {"clear_outline_matched", "number", "0.7",
      "an outline matched this well moves the Model Points by whatever slide it sees; a fainter "
      "one only by a gross slide"},
+    {"spread_sigmas", "number", "4",
+     "uncertain when this many standard deviations of the fit's disagreement with itself at the "
+     "Model Points (leaving out each 4 cm block of the model in turn) exceed the tolerance; the "
+     "block jackknife under-reads a rough scan, whose errors lean together over more than a "
+     "block"},
     {"gross_slide_tolerances", "number", "2",
      "a slide of this many tolerances is gross: any counted outline moves the Model Points, and "
      "the pose slides (misaligned) before anything else is judged"}};
-const char* const kVerifyOutcomes[] = {"verified", "out_of_tolerance", "misaligned", "occluded",
-                                       "not_seen", "off_screen",       "no_frame"};
+const char* const kVerifyOutcomes[] = {"verified", "out_of_tolerance", "misaligned", "uncertain",
+                                       "occluded", "not_seen",         "off_screen", "no_frame"};
 const projtour_key_desc kVerifyKeys[] = {reads(keys::kAlign), reads(keys::kCapture),
                                          reads_if_present(keys::kCalibration),
                                          writes(keys::kVerify), writes(keys::kAlign)};

@@ -18,6 +18,7 @@
 #include "projtour/light_check.hpp"
 #include "projtour/outline_match.hpp"
 #include "projtour/registered_depth.hpp"
+#include "projtour/registration.hpp"
 
 namespace projtour::closed_loop {
 
@@ -32,6 +33,7 @@ struct VerifySettings {
   double min_outline_matched = 0.45;
   double gross_slide_tolerances = 2.0;
   double clear_outline_matched = 0.7;
+  double spread_sigmas = 4.0;
 };
 
 static VerifySettings read_verify_settings(const Params& p) {
@@ -46,6 +48,7 @@ static VerifySettings read_verify_settings(const Params& p) {
   s.min_outline_matched = p.number("min_outline_matched");
   s.gross_slide_tolerances = p.number("gross_slide_tolerances");
   s.clear_outline_matched = p.number("clear_outline_matched");
+  s.spread_sigmas = p.number("spread_sigmas");
   if (s.edge_margin_px < 0) throw std::invalid_argument("edge_margin_px: must be >= 0");
   if (s.dot_radius_px < 1 || s.dot_radius_px > 100) {
     throw std::invalid_argument("dot_radius_px: must lie in [1, 100]");
@@ -65,6 +68,7 @@ static VerifySettings read_verify_settings(const Params& p) {
   if (!(s.clear_outline_matched >= s.min_outline_matched && s.clear_outline_matched <= 1.0)) {
     throw std::invalid_argument("clear_outline_matched: must lie in [min_outline_matched, 1]");
   }
+  if (!(s.spread_sigmas >= 0.0)) throw std::invalid_argument("spread_sigmas: must be >= 0");
   if (!(s.gross_slide_tolerances >= 0.0)) {
     throw std::invalid_argument("gross_slide_tolerances: must be >= 0");
   }
@@ -210,6 +214,14 @@ Outcome Verify::measure(Context& ctx) {
   Eigen::Vector3d plane_normal = (M[2] - M[0]).cross(M[3] - M[1]);
   plane_normal = plane_normal.norm() > 1e-12 ? plane_normal.normalized()
                                              : Eigen::Vector3d(-centre.normalized());
+  // What the depth fit is worth at the Model Points: the spread of the fits made without each
+  // part of the model.
+  const IcpModel icp_model(*view_->model);
+  const OrganizedCloud scene =
+      organized_cloud(view_->capture->frame, robot.camera.depth_to_color_m);
+  const PoseSpread spread =
+      pose_spread(icp_model, scene, view_->T_camera_model,
+                  {ctx.target->model_points.begin(), ctx.target->model_points.end()});
   light::OutlineSettings outline_settings;
   outline_settings.search_px = settings_->outline_search_px;
   const auto outline = light::match_outline(dark, model_z, outline_settings);
@@ -305,11 +317,26 @@ Outcome Verify::measure(Context& ctx) {
     return Outcome{"not_seen", who + "the colour camera did not find Model Point " + unseen +
                                    "'s dot; " + light_text};
   }
-  const std::string error_text = "observed error " + fixed(*result_.observed_error_mm, 2) +
-                                 " mm (corners " + fixed(*result_.corner_error_mm[0], 1) + ", " +
-                                 fixed(*result_.corner_error_mm[1], 1) + ", " +
-                                 fixed(*result_.corner_error_mm[2], 1) + ", " +
-                                 fixed(*result_.corner_error_mm[3], 1) + " mm), " + outline_text;
+  const std::string error_text =
+      "observed error " + fixed(*result_.observed_error_mm, 2) + " mm (corners " +
+      fixed(*result_.corner_error_mm[0], 1) + ", " + fixed(*result_.corner_error_mm[1], 1) + ", " +
+      fixed(*result_.corner_error_mm[2], 1) + ", " + fixed(*result_.corner_error_mm[3], 1) +
+      " mm), " + outline_text + ", the fit's spread " + fixed(spread.model_point_mm, 2) +
+      " mm over " + std::to_string(spread.blocks) + " blocks";
+  // The camera sees the light land on the model where the fit put it, but not whether the model
+  // sits where the real target does: a rough scan fits a surface it does not match, and its
+  // parts disagree on the pose. When that disagreement, as many of its standard deviations as
+  // spread_sigmas, exceeds the tolerance, no check can vouch for the visit.
+  const double spread_bound_mm = settings_->spread_sigmas * spread.model_point_mm;
+  if (spread_bound_mm > result_.tolerance_mm) {
+    return Outcome{"uncertain",
+                   who + "the model does not fit the surface well enough: fitted without each of " +
+                       std::to_string(spread.blocks) + " parts in turn, it puts the Model Points " +
+                       fixed(spread.model_point_mm, 2) + " mm apart (one standard deviation; " +
+                       fixed(settings_->spread_sigmas, 0) + " of them, " +
+                       fixed(spread_bound_mm, 1) + " mm, exceed the tolerance of " +
+                       fixed(result_.tolerance_mm, 1) + " mm); " + error_text};
+  }
   // The light lands where the aligned pose put it and the pose is what misses: slide it. Where
   // the light misses the aligned pose too, the calibration is mended first.
   const double at_pose_mm = sum_at_pose_mm / seen;

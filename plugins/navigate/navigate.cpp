@@ -45,7 +45,9 @@ Navigate::Navigate(const Params& params, const RunContext& run)
       timeout_s_(params.number("timeout_s")),
       lost_std_m_(params.number("lost_std_m")),
       lost_unconverged_s_(params.number("lost_unconverged_s")),
-      obstacle_lookahead_m_(params.number("obstacle_lookahead_m")) {
+      obstacle_lookahead_m_(params.number("obstacle_lookahead_m")),
+      reapproach_margin_px_(params.number("reapproach_margin_px")),
+      reapproach_max_extra_m_(params.number("reapproach_max_extra_m")) {
   if (!run.map) throw std::runtime_error("navigate needs the mission's map");
   const double radius_m = run.mission != nullptr ? run.mission->robot.base.radius_m : 0.35;
   if (run.mission != nullptr) {
@@ -70,13 +72,32 @@ void Navigate::start(Context& ctx) {
   // The projector stays dark while the base moves.
   if (ctx.drivers().projector) ctx.drivers().projector->blank();
   // Back at a target align has measured (aim's reapproach), the stand-off is taken from where the
-  // target really stands, not from where the map has it.
+  // target really stands, not from where the map has it, and as much farther than the target's
+  // standoff_m as the content needs to fit the projector image.
   if (const auto T_map_model = aligned_T_map_model(ctx.robot(), ctx.blackboard().find(keys::kAlign),
                                                    ctx.blackboard().find(keys::kCapture))) {
     TargetSpec measured = *ctx.target;
     measured.T_map_model = *T_map_model;
+    const HeadKinematics kinematics =
+        believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration));
+    Eigen::Vector3d p_aim = Eigen::Vector3d::Zero();
+    for (const auto& p : measured.model_points) p_aim += p / 4.0;
     goal_ = standoff_pose(measured);
-    ctx.log().debug("navigate " + ctx.target->id + ": re-approaching the aligned pose");
+    double chosen_m = measured.standoff_m;  // none fits: the target's own, and aim says so again
+    for (double extra_m = 0.0; extra_m <= reapproach_max_extra_m_ + 1e-9; extra_m += 0.05) {
+      measured.standoff_m = ctx.target->standoff_m + extra_m;
+      const Pose2D candidate = standoff_pose(measured);
+      const std::string problem = content_fit_problem(
+          kinematics, ctx.robot().projector.intrinsics, measured.model_points, p_aim,
+          isometry_from_pose2d(candidate).inverse() * *T_map_model, reapproach_margin_px_);
+      if (problem.empty()) {
+        goal_ = candidate;
+        chosen_m = measured.standoff_m;
+        break;
+      }
+    }
+    ctx.log().debug("navigate " + ctx.target->id + ": re-approaching the aligned pose from " +
+                    std::to_string(chosen_m) + " m");
   } else {
     goal_ = standoff_pose(*ctx.target);
   }

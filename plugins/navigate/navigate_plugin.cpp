@@ -16,6 +16,11 @@ void check_navigate_params(const Params& p) {
       throw std::invalid_argument(std::string(name) + ": expected a positive number");
     }
   }
+  for (const char* name : {"reapproach_margin_px", "reapproach_max_extra_m"}) {
+    if (!(p.number(name) >= 0.0)) {
+      throw std::invalid_argument(std::string(name) + ": expected a number >= 0");
+    }
+  }
 }
 
 const projtour_param_desc kNavigateParams[] = {
@@ -30,6 +35,12 @@ const projtour_param_desc kNavigateParams[] = {
     {"lost_unconverged_s", "number", "10",
      "lost when localization has not been converged (scans off the map) for this long"},
     {"obstacle_lookahead_m", "number", "1.5", "look for obstacles this far along the path"},
+    {"reapproach_margin_px", "number", "40",
+     "re-approaching an aligned target: the stand-off is the nearest from which its content fits "
+     "the projector image with this many pixels to spare (more than aim's margin: the base stops "
+     "within tolerance_m of its goal, and a pillar's content 10 cm nearer is 60 px taller)"},
+    {"reapproach_max_extra_m", "number", "0.5",
+     "... searched in 5 cm steps up to this much beyond the target's standoff_m"},
 };
 const char* const kNavigateOutcomes[] = {"succeeded", "unreachable", "blocked", "timeout", "lost"};
 

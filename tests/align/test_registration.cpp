@@ -1,6 +1,8 @@
 // Organized clouds, cropping, frame averaging and projective ICP on rendered frames.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <random>
 
 #include "projtour/registration.hpp"
@@ -120,6 +122,59 @@ TEST_F(ProjectiveIcpTest, RecoversThePoseFromFiveCentimetresAndDegrees) {
     EXPECT_LT(r.rmse_mm, 3.0);
     EXPECT_GT(r.iterations, 0);
   }
+}
+
+// The bunny as a rough scan of itself: moved along its vertex normals by a smooth 4 mm field.
+TriangleMesh rough_copy(const TriangleMesh& mesh, double amplitude_m) {
+  std::vector<Eigen::Vector3f> normals(mesh.vertices.size(), Eigen::Vector3f::Zero());
+  for (const Eigen::Vector3i& f : mesh.triangles) {
+    const Eigen::Vector3f n = (mesh.vertices[f[1]] - mesh.vertices[f[0]])
+                                  .cross(mesh.vertices[f[2]] - mesh.vertices[f[0]]);
+    for (int k = 0; k < 3; ++k) normals[f[k]] += n;
+  }
+  TriangleMesh out = mesh;
+  for (std::size_t i = 0; i < out.vertices.size(); ++i) {
+    const Eigen::Vector3f& v = mesh.vertices[i];
+    const double field = std::sin(2 * kPi * v.y() / 0.09) * std::cos(2 * kPi * v.z() / 0.13);
+    if (normals[i].norm() > 0) {
+      out.vertices[i] += static_cast<float>(amplitude_m * field) * normals[i].normalized();
+    }
+  }
+  return out;
+}
+
+// The block jackknife of the fit: a model that is the surface agrees with itself to the sensor's
+// noise; a rough scan's parts disagree on where the Model Points are.
+TEST_F(ProjectiveIcpTest, PoseSpreadGrowsWhenTheModelDoesNotFitTheSurface) {
+  const Eigen::Isometry3d truth = test::T_camera_model_facing(1.0, 0.3);
+  const std::vector<Eigen::Vector3d> model_points = {{0.1165, -0.0044, 0.0911},
+                                                     {0.1230, 0.0374, 0.0884},
+                                                     {0.1250, 0.0410, 0.0476},
+                                                     {0.1259, -0.0009, 0.0539}};
+  const auto spread_of = [&](const TriangleMesh& real) {
+    const DepthFrame f = test::render_on_floor(real, truth, true, 21);
+    const OrganizedCloud scene = crop_sphere(f, Eigen::Vector3d::Zero(), truth.translation(), 0.35);
+    const RegistrationResult fit = align_projective_icp(*model_, scene, truth);
+    return pose_spread(*model_, scene, fit.T_camera_model, model_points);
+  };
+  const PoseSpread smooth = spread_of(*mesh_);
+  const PoseSpread rough = spread_of(rough_copy(*mesh_, 0.004));
+  std::printf(
+      "pose spread at the Model Points: %.2f mm over %d blocks (the model is the "
+      "surface), %.2f mm over %d (a rough scan)\n",
+      smooth.model_point_mm, smooth.blocks, rough.model_point_mm, rough.blocks);
+  EXPECT_GE(smooth.blocks, 10);
+  EXPECT_GT(smooth.model_point_mm, 0.0);
+  EXPECT_LT(smooth.model_point_mm, 0.6);
+  EXPECT_GT(rough.model_point_mm, 2.0 * smooth.model_point_mm);
+  const DepthFrame f = test::render_on_floor(*mesh_, truth, true, 21);
+  const OrganizedCloud scene = crop_sphere(f, Eigen::Vector3d::Zero(), truth.translation(), 0.35);
+  // An empty scene matches nothing: no blocks, no spread.
+  const OrganizedCloud nothing = crop_sphere(f, Eigen::Vector3d::Zero(), {0.0, 0.0, 9.0}, 0.1);
+  const PoseSpread none = pose_spread(*model_, nothing, truth, model_points);
+  EXPECT_EQ(none.blocks, 0);
+  EXPECT_EQ(none.model_point_mm, 0.0);
+  EXPECT_THROW(pose_spread(*model_, scene, truth, model_points, 0.0), std::invalid_argument);
 }
 
 TEST_F(ProjectiveIcpTest, QualityOfAWrongPoseIsPoor) {

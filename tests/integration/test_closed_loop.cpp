@@ -2,6 +2,7 @@
 // tour, the robot watching its own light with the simulated colour camera. The referee's
 // projection_error_mm is never shown to the robot; these tests hold the robot's own figures
 // against it.
+#include <algorithm>
 #include <cmath>
 #include <regex>
 
@@ -14,6 +15,15 @@ using ClosedLoop = DryRunTest;
 
 double after_align_mm(const Json& t) {
   return t.at("projection_error_mm").at("after_align").get<double>();
+}
+
+// The message of the visit's first `step` outcome ("" when the step never ended).
+std::string first_message(const std::vector<Json>& events, const std::string& target,
+                          const std::string& step) {
+  for (const StepOutcome& s : step_outcomes(events, target)) {
+    if (s.step == step) return s.message;
+  }
+  return "";
 }
 
 // A 10 mm / 1 deg calibration drift (the robot file does not know it) is measured on each
@@ -66,14 +76,11 @@ TEST_F(ClosedLoop, VerificationOutOfToleranceCalibratesAndTriesAgain) {
             "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
             "verify:out_of_tolerance > calibrate:succeeded > verify:verified > "
             "project:succeeded > next:succeeded > finish");
-  const auto steps = step_outcomes(r.events, "rabbit");
-  const auto first = std::find_if(steps.begin(), steps.end(),
-                                  [](const StepOutcome& s) { return s.step == "verify"; });
-  ASSERT_NE(first, steps.end());
-  EXPECT_TRUE(std::regex_search(first->message,
-                                std::regex("observed error [0-9.]+ mm .* exceeds the tolerance "
-                                           "of 3.0 mm")))
-      << first->message;
+  const std::string first = first_message(r.events, "rabbit", "verify");
+  EXPECT_TRUE(
+      std::regex_search(first, std::regex("observed error [0-9.]+ mm .* exceeds the tolerance "
+                                          "of 3.0 mm")))
+      << first;
   const Json& t = report_target(r.report, "rabbit");
   EXPECT_EQ(t.at("retries").get<int>(), 1);
   EXPECT_LE(after_align_mm(t), 3.0) << t.dump();
@@ -81,6 +88,65 @@ TEST_F(ClosedLoop, VerificationOutOfToleranceCalibratesAndTriesAgain) {
   EXPECT_EQ(join(outcome_chain(r.events, "open-day-sign")),
             "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
             "verify:verified > project:succeeded > next:succeeded > finish");
+}
+
+// Regression: ICP settled on the sign's own plane 87 mm along it (the guess 0.2 m / 20 deg off),
+// and the camera saw its dots land where that pose put them; on the demo tour such a visit was
+// reported projected 43 mm off. The sign's outline in the colour image shows the slide: verify
+// slides the pose, looks again (the slide is to first order: twice), and only then projects.
+TEST_F(ClosedLoop, SignSlidAlongItsPlaneByIcpIsCaughtByItsOutline) {
+  mission_ = "slid_sign_tour.yaml";
+  const DryRunResult r = dry_run("w_slid_sign.yaml", "run");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(join(outcome_chain(r.events, "open-day-sign")),
+            "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
+            "calibrate:succeeded > verify:misaligned > verify:misaligned > verify:verified > "
+            "project:succeeded > next:succeeded > finish");
+  const std::string first = first_message(r.events, "open-day-sign", "verify");
+  EXPECT_TRUE(
+      std::regex_search(first, std::regex("the outline seen [0-9.]+ mm from the aligned pose")))
+      << first;
+  const Json& t = report_target(r.report, "open-day-sign");
+  EXPECT_GT(t.at("projection_error_mm").at("before_align").get<double>(), 40.0) << t.dump();
+  EXPECT_LE(after_align_mm(t), 3.0) << t.dump();
+  EXPECT_LE(std::abs(t.at("observed_error_mm").get<double>() - after_align_mm(t)), 1.0) << t.dump();
+}
+
+// Regression: a pillar 0.2 m nearer than the map has it; re-aimed at its aligned pose its
+// content still did not fit the projector image from the believed stand-off, and the visit was
+// skipped off_screen. aim says reapproach; navigate drives to the stand-off from the aligned
+// pose, as much farther as the content needs; the visit goes on.
+TEST_F(ClosedLoop, PillarNearerThanTheMapIsReapproached) {
+  mission_ = "pillar_tour.yaml";
+  const DryRunResult r = dry_run("w_pillar_nearer.yaml", "run");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string chain = join(outcome_chain(r.events, "pillar-east"));
+  EXPECT_TRUE(std::regex_search(
+      chain, std::regex("aim:reapproach > navigate:succeeded > aim:succeeded > capture:succeeded "
+                        "> align:succeeded > calibrate:succeeded > verify:verified > "
+                        "project:succeeded > next:succeeded > finish$")))
+      << chain;
+  const Json& t = report_target(r.report, "pillar-east");
+  EXPECT_LE(after_align_mm(t), 3.0) << t.dump();
+}
+
+// A rough scan (4 mm rms): on the bunny the camera sees the dots land where the pose put them,
+// but the fit's parts disagree on the pose; verify says uncertain and the visit is skipped with
+// the reason rather than projected unvouched for. The sign's fit agrees with itself.
+TEST_F(ClosedLoop, RoughModelIsUncertainNeverProjectedUnvouched) {
+  const DryRunResult r = dry_run("w_rough_model.yaml", "run");
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  const Json& rabbit = report_target(r.report, "rabbit");
+  EXPECT_EQ(rabbit.at("outcome").get<std::string>(), "skipped") << rabbit.dump();
+  EXPECT_TRUE(std::regex_search(rabbit.at("reason").get<std::string>(),
+                                std::regex("^uncertain: .*does not fit the surface well enough")))
+      << rabbit.dump();
+  EXPECT_EQ(join(outcome_chain(r.events, "rabbit")),
+            "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
+            "calibrate:succeeded > verify:uncertain > skip_target");
+  const Json& sign = report_target(r.report, "open-day-sign");
+  EXPECT_EQ(sign.at("outcome").get<std::string>(), "projected") << sign.dump();
+  EXPECT_LE(after_align_mm(sign), 3.0) << sign.dump();
 }
 
 // Regression: a thin pole 0.6 m in front of the sign caught 14 % of the content's light and the

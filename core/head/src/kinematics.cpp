@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "projtour/geometry.hpp"
+#include "projtour/projection.hpp"
 
 namespace projtour {
 
@@ -110,6 +111,18 @@ HeadKinematics believed_kinematics(const RobotSpec& robot,
   return HeadKinematics(
       robot.pan_tilt, robot.camera.mount,
       calibration != nullptr ? calibration->projector_mount : robot.projector.mount);
+}
+
+std::string content_fit_problem(const HeadKinematics& kinematics, const PinholeModel& projector,
+                                const std::array<Eigen::Vector3d, 4>& model_points,
+                                const Eigen::Vector3d& p_model_aim,
+                                const Eigen::Isometry3d& T_base_model, double edge_margin_px) {
+  std::string why;
+  const auto q = kinematics.aim_projector_at(T_base_model * p_model_aim, &why);
+  if (!q) return "out of the head's reach: " + why;
+  const ProjectedQuad quad = project_model_points(
+      model_points, kinematics.T_base_projector(*q).inverse() * T_base_model, projector);
+  return edge_problem(quad, projector, edge_margin_px);
 }
 
 std::optional<Eigen::Isometry3d> aligned_T_map_model(const RobotSpec& robot,

@@ -1,8 +1,10 @@
 // Point-to-plane ICP with projective data association through the organized depth image.
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <numeric>
 #include <random>
 
@@ -259,9 +261,14 @@ std::vector<float> model_depth_buffer(const IcpModel& model, const Level& grid,
   return z_buffer;
 }
 
-void measure_quality(const IcpModel& model, const Level& level, const Projector& projector,
-                     const Eigen::Isometry3d& T, const IcpOptions& options,
-                     RegistrationResult& result) {
+// The model points align's quality judges by: facing the camera, not hidden behind the model's
+// own parts, in the scene window, with a scene point within inlier_distance_m. `visit(k, p, n,
+// q)` gets each (model index, model point and normal in the camera frame, scene point);
+// returns the candidates' count.
+template <typename Visit>
+std::size_t visit_inliers(const IcpModel& model, const Level& level, const Projector& projector,
+                          const Eigen::Isometry3d& T, const IcpOptions& options,
+                          std::size_t max_model_points, Visit&& visit) {
   const Eigen::Matrix3f R = T.linear().cast<float>();
   const Eigen::Vector3f t = T.translation().cast<float>();
   Level grid;  // geometry only
@@ -271,12 +278,10 @@ void measure_quality(const IcpModel& model, const Level& level, const Projector&
   grid.width = ((level.u0 + level.width + 3) >> 2) - grid.u0;
   grid.height = ((level.v0 + level.height + 3) >> 2) - grid.v0;
   const std::vector<float> z_buffer = model_depth_buffer(model, grid, projector, R, t);
-  // A few thousand points pin a fraction down to about a percent; more only cost time.
-  const std::size_t n_model = std::min<std::size_t>(model.points().size(), 3000);
+  const std::size_t n_model = std::min<std::size_t>(model.points().size(), max_model_points);
   const float inlier_m = static_cast<float>(options.inlier_distance_m);
   const float hidden_m = std::max(0.01f, 2.0f * inlier_m);
-  std::size_t candidates = 0, inliers = 0;
-  double sum_sq = 0.0;
+  std::size_t candidates = 0;
   for (std::size_t k = 0; k < n_model; ++k) {
     const Eigen::Vector3f p = R * model.points()[k] + t;
     const Eigen::Vector3f n = R * model.normals()[k];
@@ -288,10 +293,25 @@ void measure_quality(const IcpModel& model, const Level& level, const Projector&
     ++candidates;
     const Eigen::Vector3f& q = level.at(i, j);
     if (!OrganizedCloud::valid(q) || (q - p).norm() > inlier_m) continue;
-    ++inliers;
-    const double r = n.dot(p - q);
-    sum_sq += r * r;
+    visit(k, p, n, q);
   }
+  return candidates;
+}
+
+void measure_quality(const IcpModel& model, const Level& level, const Projector& projector,
+                     const Eigen::Isometry3d& T, const IcpOptions& options,
+                     RegistrationResult& result) {
+  // A few thousand points pin a fraction down to about a percent; more only cost time.
+  std::size_t inliers = 0;
+  double sum_sq = 0.0;
+  const std::size_t candidates =
+      visit_inliers(model, level, projector, T, options, 3000,
+                    [&](std::size_t, const Eigen::Vector3f& p, const Eigen::Vector3f& n,
+                        const Eigen::Vector3f& q) {
+                      ++inliers;
+                      const double r = n.dot(p - q);
+                      sum_sq += r * r;
+                    });
   result.inliers = inliers;
   result.inlier_fraction = candidates > 0 ? static_cast<double>(inliers) / candidates : 0.0;
   result.rmse_mm = inliers > 0 ? 1000.0 * std::sqrt(sum_sq / inliers) : 0.0;
@@ -457,6 +477,75 @@ RegistrationResult evaluate_alignment(const IcpModel& model, const OrganizedClou
   result.converged = true;
   result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
   return result;
+}
+
+PoseSpread pose_spread(const IcpModel& model, const OrganizedCloud& scene,
+                       const Eigen::Isometry3d& T_camera_model,
+                       const std::vector<Eigen::Vector3d>& points_model, double block_m,
+                       const IcpOptions& options) {
+  if (!(block_m > 0.0)) throw std::invalid_argument("pose_spread: block_m must be > 0");
+  using Vector6 = Eigen::Matrix<double, 6, 1>;
+  using Matrix6 = Eigen::Matrix<double, 6, 6>;
+  struct Block {
+    Matrix6 H = Matrix6::Zero();
+    Vector6 g = Vector6::Zero();
+    std::size_t matches = 0;
+  };
+  // The linearised point-to-plane problem at the pose, per block of the model: a residual r
+  // moves by (p x n) . w + n . t under a small turn w and shift t.
+  std::map<std::array<int, 3>, Block> blocks;
+  Block all;
+  const Projector projector(scene);
+  visit_inliers(model, borrow(scene), projector, T_camera_model, options, model.points().size(),
+                [&](std::size_t k, const Eigen::Vector3f& p, const Eigen::Vector3f& n,
+                    const Eigen::Vector3f& q) {
+                  Vector6 J;
+                  J.head<3>() = p.cast<double>().cross(n.cast<double>());
+                  J.tail<3>() = n.cast<double>();
+                  const double r = n.cast<double>().dot((p - q).cast<double>());
+                  const Eigen::Vector3f& m = model.points()[k];
+                  const std::array<int, 3> key = {static_cast<int>(std::floor(m.x() / block_m)),
+                                                  static_cast<int>(std::floor(m.y() / block_m)),
+                                                  static_cast<int>(std::floor(m.z() / block_m))};
+                  for (Block* b : {&blocks[key], &all}) {
+                    b->H += J * J.transpose();
+                    b->g += J * r;
+                    ++b->matches;
+                  }
+                });
+  PoseSpread out;
+  out.matches = all.matches;
+  // Blocks with a handful of points say little and their leave-one-out fits are nearly the full
+  // one's: they stay in the sums but are not left out on their own.
+  constexpr std::size_t kMinBlockMatches = 20;
+  std::vector<const Block*> counted;
+  for (const auto& [key, b] : blocks) {
+    if (b.matches >= kMinBlockMatches) counted.push_back(&b);
+  }
+  out.blocks = static_cast<int>(counted.size());
+  if (counted.size() < 4) return out;
+  // Directions the whole fit hardly constrains (a flat face's slide along itself) are left to
+  // other checks: every solve is regularised by a small share of the largest curvature.
+  const double damping = 1e-6 * all.H.trace();
+  std::vector<std::vector<Eigen::Vector3d>> moved(points_model.size());
+  for (const Block* b : counted) {
+    const Matrix6 H = all.H - b->H + damping * Matrix6::Identity();
+    const Vector6 step = -H.ldlt().solve(all.g - b->g);
+    const Eigen::Vector3d w = step.head<3>(), t = step.tail<3>();
+    for (std::size_t i = 0; i < points_model.size(); ++i) {
+      const Eigen::Vector3d m = T_camera_model * points_model[i];
+      moved[i].push_back(w.cross(m) + t);
+    }
+  }
+  const double K = static_cast<double>(counted.size());
+  for (const auto& d : moved) {
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const auto& v : d) mean += v / K;
+    double sum_sq = 0.0;
+    for (const auto& v : d) sum_sq += (v - mean).squaredNorm();
+    out.model_point_mm = std::max(out.model_point_mm, 1e3 * std::sqrt((K - 1.0) / K * sum_sq));
+  }
+  return out;
 }
 
 }  // namespace projtour

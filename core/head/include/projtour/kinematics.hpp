@@ -62,6 +62,13 @@ class HeadKinematics {
 // step measured when there is one (the blackboard's keys::kCalibration).
 HeadKinematics believed_kinematics(const RobotSpec& robot, const ProjectorCalibration* calibration);
 
+// Why the content would not fit the projector image, edge_margin_px to spare, with the head
+// aimed at `p_model_aim` from a base at `T_base_model` from the target; "" when it would.
+std::string content_fit_problem(const HeadKinematics& kinematics, const PinholeModel& projector,
+                                const std::array<Eigen::Vector3d, 4>& model_points,
+                                const Eigen::Vector3d& p_model_aim,
+                                const Eigen::Isometry3d& T_base_model, double edge_margin_px);
+
 // The target where align measured it, in the map: the capture's base estimate, the head at the
 // capture's joints (the camera mount is the robot file's: calibration measures only the
 // projector's) and the fitted pose. Absent without a fitted pose. It outlives a move of the

@@ -137,4 +137,20 @@ RegistrationResult evaluate_alignment(const IcpModel& model, const OrganizedClou
                                       const Eigen::Isometry3d& T_camera_model,
                                       const IcpOptions& options = {});
 
+// How far the fit would move the given points (model frame) were it made without each part of
+// the model in turn: the delete-one-block jackknife of the point-to-plane problem at the pose,
+// blocks being cubes of `block_m` of the model. A model that fits the surface everywhere agrees
+// with itself to the sensor's noise; a rough scan's parts disagree, each leaning the pose its own
+// way, and the spread is what the pose is worth at those points. The largest over the points
+// (one standard deviation, mm); 0 with fewer than four blocks of 20 matches.
+struct PoseSpread {
+  double model_point_mm = 0.0;
+  int blocks = 0;
+  std::size_t matches = 0;
+};
+PoseSpread pose_spread(const IcpModel& model, const OrganizedCloud& scene,
+                       const Eigen::Isometry3d& T_camera_model,
+                       const std::vector<Eigen::Vector3d>& points_model, double block_m = 0.04,
+                       const IcpOptions& options = {});
+
 }  // namespace projtour
