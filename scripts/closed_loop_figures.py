@@ -22,6 +22,9 @@ DEMO = os.path.join(ROOT, "missions", "demo_tour.yaml")
 SHORT = os.path.join(ROOT, "tests", "integration", "data", "short_tour.yaml")
 FAULT_DIR = os.path.join(ROOT, "tests", "integration", "data")
 REVISIT = os.path.join(FAULT_DIR, "revisit_tour.yaml")
+# Fault worlds written for a tour of their own, run with the seed in the world file.
+OWN_TOUR = {"w_revisit": (REVISIT, 11), "w_pillar_nearer": (os.path.join(FAULT_DIR, "pillar_tour.yaml"), None),
+            "w_slid_sign": (os.path.join(FAULT_DIR, "slid_sign_tour.yaml"), None)}
 
 
 def world_text(seed, calibration=(1.0, 0.1), offset=(0.05, 3.0), noise_mm=None, faults=None):
@@ -37,7 +40,7 @@ def world_text(seed, calibration=(1.0, 0.1), offset=(0.05, 3.0), noise_mm=None, 
 
 def run(build, mission, world_file, seed, out_dir):
     cmd = [os.path.join(build, "projtour"), "run", mission, "--dry-run", "--world", world_file,
-           "--seed", str(seed), "--out", out_dir]
+           "--out", out_dir] + (["--seed", str(seed)] if seed is not None else [])
     p = subprocess.run(cmd, capture_output=True, text=True)
     report = os.path.join(out_dir, "report.json")
     if not os.path.exists(report):
@@ -117,9 +120,11 @@ def main():
     if "faults" in a.only:
         for f in sorted(os.listdir(FAULT_DIR)):
             if f.startswith("w_") and f.endswith(".yaml"):
-                # The revisit world's faults name the revisit tour's second visit.
-                mission = REVISIT if f.startswith("w_revisit") else SHORT
-                cases.append(("faults", f, mission, os.path.join(FAULT_DIR, f), 11))
+                mission, seed = SHORT, 11
+                for prefix, (own, own_seed) in OWN_TOUR.items():
+                    if f.startswith(prefix):
+                        mission, seed = own, own_seed
+                cases.append(("faults", f, mission, os.path.join(FAULT_DIR, f), seed))
 
     def go(i_case):
         i, (family, name, mission, world, seed) = i_case

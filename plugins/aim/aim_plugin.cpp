@@ -58,12 +58,13 @@ class Aim : public Behaviour {
     }
     const HeadKinematics kinematics =
         believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration));
-    const Eigen::Isometry3d T_map_base = isometry_from_pose2d(estimate->mean);
-    const auto T_map_aligned = aligned_T_map_model(ctx.robot(), ctx.blackboard().find(keys::kAlign),
-                                                   ctx.blackboard().find(keys::kCapture));
-    if (T_map_aligned) ctx.log().debug("aim " + target.id + ": re-aiming at the aligned pose");
+    const auto T_base_aligned =
+        aligned_T_base_model(ctx.robot(), ctx.blackboard().find(keys::kAlign),
+                             ctx.blackboard().find(keys::kCapture), estimate->mean);
+    if (T_base_aligned) ctx.log().debug("aim " + target.id + ": re-aiming at the aligned pose");
     const Eigen::Isometry3d T_base_model =
-        T_map_base.inverse() * (T_map_aligned ? *T_map_aligned : target.T_map_model);
+        T_base_aligned ? *T_base_aligned
+                       : isometry_from_pose2d(estimate->mean).inverse() * target.T_map_model;
     const Eigen::Vector3d p_base = T_base_model * p_model;
     std::string why;
     const auto q = kinematics.aim_projector_at(p_base, &why);
@@ -72,10 +73,11 @@ class Aim : public Behaviour {
       s.precision(2);
       s << std::fixed << "target " << target.id << ": aim point (" << p_base.x() << ", "
         << p_base.y() << ", " << p_base.z() << ") m in the base frame is out of reach: " << why;
-      early_ = Outcome{"out_of_reach", s.str()};
+      // Aimed at where the target really is, a farther stand-off may bring it within reach.
+      early_ = Outcome{T_base_aligned ? "reapproach" : "out_of_reach", s.str()};
       return;
     }
-    if (T_map_aligned) {
+    if (T_base_aligned) {
       // Where the target really is, its content may not fit the projector image from this
       // stand-off at any angle (a target nearer than the map has it): the base re-approaches.
       const std::string problem =

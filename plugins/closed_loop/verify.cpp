@@ -81,6 +81,11 @@ void check_verify_params(const Params& params) {
 
 namespace {
 
+// A gross slide also moves the outline more than this in the image (Canny places an edge to a
+// pixel) and matches it at most this share of the cost where the model has it.
+constexpr double kGrossShiftPx = 3.0;
+constexpr double kGrossCostShare = 0.7;
+
 std::string fixed(double v, int digits) {
   std::ostringstream s;
   s.precision(digits);
@@ -228,14 +233,20 @@ Outcome Verify::measure(Context& ctx) {
   Eigen::Vector3d slide = Eigen::Vector3d::Zero();
   bool clear = false, gross = false;
   std::string outline_text;
-  if (outline && outline->matched_fraction >= settings_->min_outline_matched) {
+  // An outline that fixes no image direction checks nothing.
+  if (outline && outline->matched_fraction >= settings_->min_outline_matched &&
+      outline->fixed_directions > 0) {
     const Eigen::Vector3d seen =
         light::slide_for_shift(colour, centre, plane_normal, outline->shift_px);
     // A clear outline (a sign's, a pillar's sides) resolves a millimetre; a faint one (a rough
     // bunny's a metre away, its outline the rough surface's own) only a gross slide, beyond
     // gross_slide_tolerances: the slide ICP leaves a flat face with.
     clear = outline->matched_fraction >= settings_->clear_outline_matched;
-    gross = 1e3 * seen.norm() > settings_->gross_slide_tolerances * result_.tolerance_mm;
+    // Gross: beyond the tolerances, beyond what a pixel's doubt in the edges could make, and a
+    // better match there than where the model is (a faint outline's best is often only as bad).
+    gross = 1e3 * seen.norm() > settings_->gross_slide_tolerances * result_.tolerance_mm &&
+            outline->shift_px.norm() > kGrossShiftPx &&
+            (clear || outline->cost_px < kGrossCostShare * outline->cost_at_zero_px);
     if (clear || gross) slide = seen;
     outline_text = "the outline seen " + fixed(1e3 * seen.norm(), 1) +
                    " mm from the aligned pose (" + fixed(outline->shift_px.x(), 1) + ", " +
@@ -328,6 +339,13 @@ Outcome Verify::measure(Context& ctx) {
   // parts disagree on the pose. When that disagreement, as many of its standard deviations as
   // spread_sigmas, exceeds the tolerance, no check can vouch for the visit.
   const double spread_bound_mm = settings_->spread_sigmas * spread.model_point_mm;
+  if (spread.blocks < 4) {
+    return Outcome{"uncertain", who + "too little of the model matched the depth (" +
+                                    std::to_string(spread.matches) + " points in " +
+                                    std::to_string(spread.blocks) +
+                                    " parts of 20 or more) to check the fit against itself; " +
+                                    error_text};
+  }
   if (spread_bound_mm > result_.tolerance_mm) {
     return Outcome{"uncertain",
                    who + "the model does not fit the surface well enough: fitted without each of " +

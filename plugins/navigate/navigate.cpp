@@ -28,6 +28,8 @@ constexpr double kAimFraction = 0.4;
 // Counts as progress.
 constexpr double kProgressM = 0.05;
 constexpr double kReplanPeriodS = 1.0;
+// Re-approach stand-offs are tried this far apart.
+constexpr double kReapproachStepM = 0.05;
 
 double clamp(double v, double limit) {
   return std::max(-limit, std::min(limit, v));
@@ -71,6 +73,7 @@ void Navigate::start(Context& ctx) {
   if (!ctx.drivers().base) throw std::runtime_error("navigate needs a base driver");
   // The projector stays dark while the base moves.
   if (ctx.drivers().projector) ctx.drivers().projector->blank();
+  early_.reset();
   // Back at a target align has measured (aim's reapproach), the stand-off is taken from where the
   // target really stands, not from where the map has it, and as much farther than the target's
   // standoff_m as the content needs to fit the projector image.
@@ -82,22 +85,37 @@ void Navigate::start(Context& ctx) {
         believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration));
     Eigen::Vector3d p_aim = Eigen::Vector3d::Zero();
     for (const auto& p : measured.model_points) p_aim += p / 4.0;
-    goal_ = standoff_pose(measured);
-    double chosen_m = measured.standoff_m;  // none fits: the target's own, and aim says so again
-    for (double extra_m = 0.0; extra_m <= reapproach_max_extra_m_ + 1e-9; extra_m += 0.05) {
-      measured.standoff_m = ctx.target->standoff_m + extra_m;
+    std::optional<double> chosen_m;
+    std::string problem = "no stand-off searched";
+    const int steps =
+        static_cast<int>(std::floor(reapproach_max_extra_m_ / kReapproachStepM + 1e-9));
+    for (int k = 0; k <= steps && !chosen_m; ++k) {
+      measured.standoff_m = ctx.target->standoff_m + k * kReapproachStepM;
       const Pose2D candidate = standoff_pose(measured);
-      const std::string problem = content_fit_problem(
+      if (!map_planner_->grid().fits(Eigen::Vector2d(candidate.x_m, candidate.y_m))) {
+        problem = "the stand-off " + std::to_string(measured.standoff_m) + " m off is not free";
+        continue;
+      }
+      problem = content_fit_problem(
           kinematics, ctx.robot().projector.intrinsics, measured.model_points, p_aim,
           isometry_from_pose2d(candidate).inverse() * *T_map_model, reapproach_margin_px_);
       if (problem.empty()) {
         goal_ = candidate;
         chosen_m = measured.standoff_m;
-        break;
       }
     }
+    if (!chosen_m) {
+      // Driving to where the content cannot fit either would only bring aim back here.
+      early_ =
+          Outcome{"unreachable", "target " + ctx.target->id + ": from no free stand-off up to " +
+                                     std::to_string(measured.standoff_m) +
+                                     " m off its aligned pose does the content fit the "
+                                     "projector image (" +
+                                     problem + ")"};
+      return;
+    }
     ctx.log().debug("navigate " + ctx.target->id + ": re-approaching the aligned pose from " +
-                    std::to_string(chosen_m) + " m");
+                    std::to_string(*chosen_m) + " m");
   } else {
     goal_ = standoff_pose(*ctx.target);
   }
@@ -190,6 +208,7 @@ std::vector<Eigen::Vector2d> Navigate::obstacles_on_path(Context& ctx, const Pos
 }
 
 std::optional<Outcome> Navigate::tick(Context& ctx) {
+  if (early_) return early_;
   if (ctx.cancel_requested()) {
     command(ctx, 0, 0);
     return Outcome{kOutcomeCancelled, "cancelled"};

@@ -33,6 +33,7 @@ class Navigate : public Behaviour {
   double tolerance_m_, tolerance_rad_, lookahead_m_, max_speed_mps_, max_turn_rate_radps_;
   double blocked_s_, timeout_s_, lost_std_m_, lost_unconverged_s_, obstacle_lookahead_m_;
   double reapproach_margin_px_, reapproach_max_extra_m_;
+  std::optional<Outcome> early_;  // decided in start(): no stand-off to re-approach from
 
   std::shared_ptr<const PathPlanner> map_planner_;  // the map as loaded
   std::unique_ptr<PathPlanner> planner_;            // plus what the laser saw on this run

@@ -16,10 +16,11 @@ void check_navigate_params(const Params& p) {
       throw std::invalid_argument(std::string(name) + ": expected a positive number");
     }
   }
-  for (const char* name : {"reapproach_margin_px", "reapproach_max_extra_m"}) {
-    if (!(p.number(name) >= 0.0)) {
-      throw std::invalid_argument(std::string(name) + ": expected a number >= 0");
-    }
+  if (!(p.number("reapproach_margin_px") >= 0.0)) {
+    throw std::invalid_argument("reapproach_margin_px: expected a number >= 0");
+  }
+  if (!(p.number("reapproach_max_extra_m") >= 0.0 && p.number("reapproach_max_extra_m") <= 3.0)) {
+    throw std::invalid_argument("reapproach_max_extra_m: expected a number in [0, 3]");
   }
 }
 

@@ -165,8 +165,9 @@ TEST_F(ProjectiveIcpTest, PoseSpreadGrowsWhenTheModelDoesNotFitTheSurface) {
       smooth.model_point_mm, smooth.blocks, rough.model_point_mm, rough.blocks);
   EXPECT_GE(smooth.blocks, 10);
   EXPECT_GT(smooth.model_point_mm, 0.0);
-  EXPECT_LT(smooth.model_point_mm, 0.6);
-  EXPECT_GT(rough.model_point_mm, 2.0 * smooth.model_point_mm);
+  // Against verify's gate (four of them beyond the default 3 mm tolerance is uncertain).
+  EXPECT_LT(4.0 * smooth.model_point_mm, 3.0);
+  EXPECT_GT(4.0 * rough.model_point_mm, 3.0);
   const DepthFrame f = test::render_on_floor(*mesh_, truth, true, 21);
   const OrganizedCloud scene = crop_sphere(f, Eigen::Vector3d::Zero(), truth.translation(), 0.35);
   // An empty scene matches nothing: no blocks, no spread.

@@ -4,7 +4,8 @@
 // a belief 10 mm / 1 degree off. BM_calibration is the whole of it (the budget: 50 ms); the
 // others are its parts. Counters: blocks decoded, points lifted, inliers, rms_px of the fit, and
 // its error at the target (target_mm: the sign's corners as the projector images them, across
-// its rays) and of the transform (position_mm, rotation_deg).
+// its rays) and of the transform (position_mm, rotation_deg). BM_outline_match is verify's
+// outline check.
 #include <benchmark/benchmark.h>
 
 #include <opencv2/core.hpp>
@@ -12,6 +13,8 @@
 #include "../light/light_scene.hpp"
 #include "projtour/geometry.hpp"
 #include "projtour/gray_code.hpp"
+#include "projtour/light_check.hpp"
+#include "projtour/outline_match.hpp"
 #include "projtour/projector_fit.hpp"
 #include "projtour/registered_depth.hpp"
 
@@ -131,7 +134,36 @@ void BM_fit(benchmark::State& state) {
   report(state, f, decoded, lifted, fit);
 }
 
+// Verify's outline check: the sign's model, slid 25 mm along its face, matched against the dark
+// frame's edges (search +-48 px). Counters: the slide it finds back (found_mm, of 25) and the
+// share of the outline matched.
+void BM_outline_match(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const Fixture& f = fixture();
+  const test::ColourRenderer renderer(f.rig, f.scene);
+  const ColourFrame dark =
+      renderer.render(cv::Mat::zeros(f.rig.projector.height, f.rig.projector.width, CV_8UC3), 7);
+  Eigen::Isometry3d T_true;
+  const ModelCloud model = test::rectangle_model(f.scene.surfaces[0], 0.003, T_true);
+  const Eigen::Isometry3d T_slid = T_true * Eigen::Translation3d(0.025, 0.0, 0.0);
+  const std::vector<float> model_z = light::model_depth(model, T_slid, f.rig.colour);
+  std::optional<light::OutlineMatch> match;
+  for (auto _ : state) {
+    match = light::match_outline(dark, model_z);
+    benchmark::DoNotOptimize(match);
+  }
+  if (!match) {
+    state.SkipWithError("no outline");
+    return;
+  }
+  const Eigen::Vector3d slide = light::slide_for_shift(f.rig.colour, T_slid.translation(),
+                                                       T_slid.linear().col(2), match->shift_px);
+  state.counters["found_mm"] = 1000.0 * slide.norm();
+  state.counters["matched"] = match->matched_fraction;
+}
+
 BENCHMARK(BM_calibration)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_outline_match)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_decode)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_register_depth)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_lift)->Unit(benchmark::kMillisecond);

@@ -125,13 +125,40 @@ std::string content_fit_problem(const HeadKinematics& kinematics, const PinholeM
   return edge_problem(quad, projector, edge_margin_px);
 }
 
+namespace {
+// A base that moved less than this since the capture stood still.
+constexpr double kStillM = 0.01;
+constexpr double kStillRad = 0.5 * kPi / 180.0;
+
+bool fitted_this_capture(const AlignResult* aligned, const CapturedFrame* capture) {
+  return aligned != nullptr && aligned->T_camera_model && capture != nullptr &&
+         aligned->joints.pan_rad == capture->joints.pan_rad &&
+         aligned->joints.tilt_rad == capture->joints.tilt_rad;
+}
+}  // namespace
+
 std::optional<Eigen::Isometry3d> aligned_T_map_model(const RobotSpec& robot,
                                                      const AlignResult* aligned,
                                                      const CapturedFrame* capture) {
-  if (aligned == nullptr || !aligned->T_camera_model || capture == nullptr) return std::nullopt;
+  if (!fitted_this_capture(aligned, capture)) return std::nullopt;
   const HeadKinematics head(robot);
   return isometry_from_pose2d(capture->base_estimate.mean) * head.T_base_camera(aligned->joints) *
          *aligned->T_camera_model;
+}
+
+std::optional<Eigen::Isometry3d> aligned_T_base_model(const RobotSpec& robot,
+                                                      const AlignResult* aligned,
+                                                      const CapturedFrame* capture,
+                                                      const Pose2D& T_map_base_now) {
+  if (!fitted_this_capture(aligned, capture)) return std::nullopt;
+  const Pose2D& then = capture->base_estimate.mean;
+  const double turned = std::remainder(T_map_base_now.yaw_rad - then.yaw_rad, 2.0 * kPi);
+  if (std::hypot(T_map_base_now.x_m - then.x_m, T_map_base_now.y_m - then.y_m) < kStillM &&
+      std::abs(turned) < kStillRad) {
+    return HeadKinematics(robot).T_base_camera(aligned->joints) * *aligned->T_camera_model;
+  }
+  return isometry_from_pose2d(T_map_base_now).inverse() *
+         *aligned_T_map_model(robot, aligned, capture);
 }
 
 // The closed form for the mount turned the least to make its optical axis perpendicular to the

@@ -224,6 +224,7 @@ std::optional<OutlineMatch> match_outline(const ColourFrame& frame,
   out.shift_px = projector_onto_fixed * shift;
   out.fixed_directions = static_cast<int>(std::lround(projector_onto_fixed.trace()));
   out.cost_px = best;
+  out.cost_at_zero_px = cost(0, 0);
   out.outline_pixels = static_cast<int>(outline.size());
   int matched = 0;
   for (const OutlinePixel& p : outline) {

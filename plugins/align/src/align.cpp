@@ -2,6 +2,7 @@
 #include <chrono>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "alignment_image.hpp"
@@ -120,8 +121,20 @@ class Align : public Behaviour {
                                            HeadKinematics(ctx.robot()).T_base_camera(out.joints);
     const Eigen::Isometry3d T_camera_model_guess = T_map_camera.inverse() * ctx.target->T_map_model;
     out.T_camera_model_guess = T_camera_model_guess;
+    // A visit that has aligned already (after a re-approach, a re-aim, a re-capture) starts from
+    // that pose, carried through whatever the base and head did since, and with verify's slide
+    // in it: the map's belief may be the very guess ICP slid from.
+    Eigen::Isometry3d T_camera_model_start = T_camera_model_guess;
+    const AlignResult* previous = bb.find(keys::kAlign);
+    if (previous != nullptr && previous->T_camera_model && last_fit_ &&
+        last_fit_->target_id == ctx.target->id &&
+        last_fit_->joints.pan_rad == previous->joints.pan_rad &&
+        last_fit_->joints.tilt_rad == previous->joints.tilt_rad) {
+      T_camera_model_start =
+          T_map_camera.inverse() * last_fit_->T_map_camera * *previous->T_camera_model;
+    }
     const OrganizedCloud scene =
-        crop_sphere(frame, camera.depth_to_color_m, T_camera_model_guess.translation(),
+        crop_sphere(frame, camera.depth_to_color_m, T_camera_model_start.translation(),
                     model->bounding_radius_m() + settings_.crop_margin_m);
     const std::size_t scene_points = scene.valid_count();
     if (scene_points < static_cast<std::size_t>(settings_.min_points)) {
@@ -134,7 +147,7 @@ class Align : public Behaviour {
       return Outcome{"no_target", why.str()};
     }
 
-    RegistrationResult result = register_scene(model, scene, T_camera_model_guess);
+    RegistrationResult result = register_scene(model, scene, T_camera_model_start);
     result.time_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started)
             .count();
@@ -156,6 +169,7 @@ class Align : public Behaviour {
       return Outcome{"poor_fit", why.str()};
     }
     out.T_camera_model = result.T_camera_model;
+    last_fit_ = LastFit{ctx.target->id, out.joints, T_map_camera};
     bb.set(keys::kAlign, std::move(out));
     return Outcome{"succeeded", format_quality(result)};
   }
@@ -195,6 +209,14 @@ class Align : public Behaviour {
     std::shared_ptr<const IcpModel> icp;
   };
   std::map<std::string, LoadedModel> models_;
+  // Where the camera was for the last good fit: the blackboard's AlignResult holds the pose in
+  // that capture's camera frame, and the capture on the blackboard is by now the next one.
+  struct LastFit {
+    std::string target_id;
+    JointAngles joints;
+    Eigen::Isometry3d T_map_camera;
+  };
+  std::optional<LastFit> last_fit_;
 };
 
 const projtour_param_desc kAlignParams[] = {
@@ -215,7 +237,8 @@ const projtour_param_desc kAlignParams[] = {
     {"draw", "boolean", "true", "write alignment.png into the target's folder"},
 };
 const char* const kAlignOutcomes[] = {"succeeded", "poor_fit", "no_target"};
-const projtour_key_desc kAlignKeys[] = {reads(keys::kCapture), writes(keys::kAlign)};
+const projtour_key_desc kAlignKeys[] = {reads(keys::kCapture), reads_if_present(keys::kAlign),
+                                        writes(keys::kAlign)};
 const projtour_kind_desc kKinds[] = {with_keys(
     behaviour_kind<Align>("align", "ICP of the target's model against the captured depth frame",
                           kAlignParams, kAlignOutcomes, validator<read_settings>()),

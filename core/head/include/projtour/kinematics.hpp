@@ -71,10 +71,19 @@ std::string content_fit_problem(const HeadKinematics& kinematics, const PinholeM
 
 // The target where align measured it, in the map: the capture's base estimate, the head at the
 // capture's joints (the camera mount is the robot file's: calibration measures only the
-// projector's) and the fitted pose. Absent without a fitted pose. It outlives a move of the
-// base, which the camera frame does not: navigate re-approaches and aim re-aims through it.
+// projector's) and the fitted pose. Absent without a fitted pose, or when the capture on the
+// blackboard is not the one align fitted (its joints differ). It outlives a move of the base,
+// which the camera frame does not: navigate re-approaches and aim re-aims through it.
 std::optional<Eigen::Isometry3d> aligned_T_map_model(const RobotSpec& robot,
                                                      const AlignResult* aligned,
                                                      const CapturedFrame* capture);
+
+// The same in the frame of the base at `T_map_base_now`: through the map when the base has moved
+// since the capture, else straight from the capture's camera (the estimate's jitter standing
+// still, a few millimetres, is not a move and would only blur the re-aim).
+std::optional<Eigen::Isometry3d> aligned_T_base_model(const RobotSpec& robot,
+                                                      const AlignResult* aligned,
+                                                      const CapturedFrame* capture,
+                                                      const Pose2D& T_map_base_now);
 
 }  // namespace projtour

@@ -28,6 +28,7 @@ struct OutlineMatch {
   int fixed_directions = 0;       // 2: both; 1: across the outline's sides only (a pillar); 0: none
   double matched_fraction = 0.0;  // of the outline's pixels, at the shift
   double cost_px = 0.0;           // mean truncated distance to an edge, at the shift
+  double cost_at_zero_px = 0.0;   // ... and where the model has it
   int outline_pixels = 0;
 };
 
