@@ -1,4 +1,5 @@
-// Laser driver `mrpt_sensor`: runs a 2-D scanner through MRPT's hwdrivers (CHokuyoURG,
+// Laser driver `mrpt_sensor` and depth camera driver `rawlog_depth` (rawlog_depth.cpp).
+// `mrpt_sensor` runs a 2-D scanner through MRPT's hwdrivers (CHokuyoURG,
 // CSickLaserUSB, CRoboPeakLidar, ...), chosen by the `driver=` key of a section of an MRPT ini
 // file, as MRPT's rawlog-grabber does. Scans are collected each tick.
 #include <mrpt/config/CConfigFile.h>
@@ -11,6 +12,7 @@
 #include <string>
 
 #include "projtour/plugin_author.hpp"
+#include "rawlog_depth.hpp"
 
 namespace projtour::mrpt_sensor {
 namespace {
@@ -136,9 +138,32 @@ const projtour_param_desc kParams[] = {
     {"section", "string", "LASER_2D", "its section; driver= names the MRPT class"},
 };
 
-const projtour_kind_desc kKinds[] = {projtour::driver_kind<MrptSensorLaser>(
-    "mrpt_sensor", "laser", "2-D laser scanner through MRPT hwdrivers (Hokuyo, SICK, RPLIDAR)",
-    kParams, &validate)};
+int validate_rawlog(const void* raw, char* error, size_t error_size) {
+  const Params& p = *static_cast<const Params*>(raw);
+  const char* problem = p.string("file").empty()        ? "file must name an MRPT rawlog"
+                        : !(p.number("period_s") > 0.0) ? "period_s must be > 0"
+                                                        : nullptr;
+  if (problem == nullptr) return 0;
+  plugin_detail::copy_message(problem, error, error_size);
+  return 1;
+}
+
+const projtour_param_desc kRawlogParams[] = {
+    {"file", "string", "",
+     "MRPT rawlog (relative to the robot file) whose CObservation3DRangeScan frames are replayed"},
+    {"period_s", "number", "0.0333333", "mission seconds between frames"},
+    {"loop", "boolean", "true", "after the last frame, start again (else no more frames)"},
+};
+
+const projtour_kind_desc kKinds[] = {
+    projtour::driver_kind<MrptSensorLaser>(
+        "mrpt_sensor", "laser", "2-D laser scanner through MRPT hwdrivers (Hokuyo, SICK, RPLIDAR)",
+        kParams, &validate),
+    projtour::driver_kind<RawlogDepth>(
+        "rawlog_depth", "depth_camera",
+        "depth frames replayed from an MRPT rawlog (CObservation3DRangeScan), e.g. recorded at "
+        "the site with rawlog-grabber",
+        kRawlogParams, &validate_rawlog)};
 
 }  // namespace
 }  // namespace projtour::mrpt_sensor

@@ -2,10 +2,14 @@
 // executor loads them, over drivers made for the test and frames from the simulator's renderer.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <chrono>
+#include <cstdio>
 #include <deque>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <thread>
 
 #include "projtour/blackboard_keys.hpp"
@@ -50,7 +54,7 @@ const char* const kBunny = PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply";
 PluginRegistry& registry() {
   static PluginRegistry* r = [] {
     auto* reg = new PluginRegistry;
-    for (const char* name : {"capture", "align", "openni2"}) {
+    for (const char* name : {"capture", "align", "openni2", "mrpt_sensor"}) {
       reg->load_library(fs::path(PROJTOUR_PLUGIN_BUILD_DIR) /
                         ("libprojtour_" + std::string(name) + ".so"));
     }
@@ -315,6 +319,126 @@ TEST(OpenNi2, DummyDeviceStreamsFramesWithIntrinsicsAndIncreasingTimestamps) {
   // The organized cloud of a Dummy frame: its readings become points at their depth.
   const OrganizedCloud cloud = organized_cloud(frames[0]);
   EXPECT_EQ(cloud.valid_count(), frames[0].valid_count());
+}
+
+// Real recorded depth: MRPT's tests_rgbd.rawlog holds one OpenNI2 frame of an office (a wall, a
+// bookshelf, a briefcase). It comes through the rawlog_depth driver as a live camera's would; the
+// wall's plane fits it to the sensor's noise; and a model cut from the frame itself registers
+// back onto it from a 5 cm / 5 degree guess.
+TEST(RawlogDepth, ARealOpenNi2FrameThroughTheCapturePath) {
+  const fs::path rawlog = "/usr/share/mrpt/datasets/tests_rgbd.rawlog";
+  ASSERT_TRUE(fs::exists(rawlog)) << "mrpt-common's datasets are installed by the build";
+  const test::RunRig rig{test::RunRig::RunDir::none};
+  auto driver = registry().create_driver(
+      "rawlog_depth", params_of("rawlog_depth", {{"file", rawlog.string()}, {"loop", false}}),
+      rig.run);
+  auto* camera = dynamic_cast<DepthCameraDriver*>(driver.get());
+  ASSERT_NE(camera, nullptr);
+  camera->update(3.0);
+  const auto frame = camera->grab();
+  ASSERT_TRUE(frame);
+  camera->update(4.0);
+  EXPECT_FALSE(camera->grab()) << "one frame, no loop";
+  EXPECT_EQ(frame->t_s, 3.0);
+  EXPECT_GT(frame->intrinsics.fx, 400.0);
+  EXPECT_EQ(frame->depth_mm.size(), static_cast<std::size_t>(frame->width) * frame->height);
+  const double valid = static_cast<double>(frame->valid_count()) / frame->depth_mm.size();
+  EXPECT_GT(valid, 0.5);
+
+  // The dominant plane (the wall), by RANSAC over the frame's points, then least squares.
+  const OrganizedCloud cloud = organized_cloud(*frame, Eigen::Vector3d::Zero(), 0.3, 5.0);
+  std::vector<Eigen::Vector3d> points;
+  for (const auto& p : cloud.points) {
+    if (OrganizedCloud::valid(p)) points.push_back(p.cast<double>());
+  }
+  ASSERT_GT(points.size(), 10000u);
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<std::size_t> pick(0, points.size() - 1);
+  Eigen::Vector3d best_n = Eigen::Vector3d::UnitZ();
+  double best_d = 0.0;
+  std::size_t best_count = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    const Eigen::Vector3d a = points[pick(rng)], b = points[pick(rng)], c = points[pick(rng)];
+    const Eigen::Vector3d n = (b - a).cross(c - a);
+    if (n.norm() < 1e-9) continue;
+    const Eigen::Vector3d u = n.normalized();
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < points.size(); i += 7)
+      count += std::abs(u.dot(points[i] - a)) < 0.02;
+    if (count > best_count) best_count = count, best_n = u, best_d = u.dot(a);
+  }
+  std::vector<Eigen::Vector3d> wall;
+  for (const auto& p : points) {
+    if (std::abs(best_n.dot(p) - best_d) < 0.02) wall.push_back(p);
+  }
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& p : wall) centroid += p / static_cast<double>(wall.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const auto& p : wall) scatter += (p - centroid) * (p - centroid).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(scatter);
+  const Eigen::Vector3d normal = eig.eigenvectors().col(0);
+  double sum_sq = 0.0;
+  for (const auto& p : wall) sum_sq += std::pow(normal.dot(p - centroid), 2);
+  const double residual_mm = 1000.0 * std::sqrt(sum_sq / wall.size());
+  std::printf(
+      "tests_rgbd.rawlog: %dx%d, %.0f %% valid; the wall: %zu points at %.2f m, plane "
+      "residual %.1f mm rms\n",
+      frame->width, frame->height, 100.0 * valid, wall.size(), centroid.z(), residual_mm);
+  EXPECT_GT(wall.size(), points.size() / 5);
+  // Kinect v1 depth noise is about 1.4e-3 z^2 (7 mm at 2.3 m); a flat wall within twice that.
+  EXPECT_LT(residual_mm, 2.0 * 1.4 * centroid.z() * centroid.z());
+
+  // A model cut from the frame (what is not the wall, within 0.5 m of its middle, with normals
+  // from the image's neighbours) registered back from a 5 cm / 5 degree guess.
+  ModelCloud model;
+  Eigen::Vector3d middle = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> kept;
+  for (int j = 2; j + 2 < cloud.height; j += 2) {
+    for (int i = 2; i + 2 < cloud.width; i += 2) {
+      const Eigen::Vector3f& p = cloud.at(i, j);
+      const Eigen::Vector3f &l = cloud.at(i - 2, j), &r = cloud.at(i + 2, j);
+      const Eigen::Vector3f &u = cloud.at(i, j - 2), &d = cloud.at(i, j + 2);
+      if (!OrganizedCloud::valid(p) || !OrganizedCloud::valid(l) || !OrganizedCloud::valid(r) ||
+          !OrganizedCloud::valid(u) || !OrganizedCloud::valid(d)) {
+        continue;
+      }
+      if (std::abs(best_n.dot(p.cast<double>()) - best_d) < 0.03) continue;  // the wall
+      Eigen::Vector3f n = (r - l).cross(d - u);
+      if (n.norm() < 1e-9f || (r - l).norm() > 0.05f || (d - u).norm() > 0.05f) continue;
+      n.normalize();
+      if (n.dot(p) > 0.0f) n = -n;  // toward the camera
+      model.points.push_back(p);
+      model.normals.push_back(n);
+      middle += p.cast<double>();
+    }
+  }
+  ASSERT_GT(model.points.size(), 2000u);
+  middle /= static_cast<double>(model.points.size());
+  ModelCloud cut;
+  for (std::size_t k = 0; k < model.points.size(); ++k) {
+    const Eigen::Vector3f q = model.points[k] - middle.cast<float>();
+    if (q.norm() > 0.5f) continue;
+    cut.points.push_back(q);
+    cut.normals.push_back(model.normals[k]);
+    cut.bounding_radius_m = std::max(cut.bounding_radius_m, q.norm());
+  }
+  ASSERT_GT(cut.points.size(), 1000u);
+  Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
+  truth.translation() = middle;
+  const IcpModel icp_model(cut);
+  std::mt19937 guesses(11);
+  for (int trial = 0; trial < 5; ++trial) {
+    const Eigen::Isometry3d guess = test::perturb(truth, 0.05, deg_to_rad(5.0), guesses);
+    const RegistrationResult r =
+        align_projective_icp(icp_model, *frame, Eigen::Vector3d::Zero(), guess, 0.1);
+    const double mm = 1000.0 * translation_distance_m(r.T_camera_model, truth);
+    const double deg = rad_to_deg(rotation_angle_rad(r.T_camera_model, truth));
+    std::printf("  from 5 cm / 5 deg: %.2f mm, %.3f deg, inlier fraction %.2f, %.2f ms\n", mm, deg,
+                r.inlier_fraction, r.time_ms);
+    EXPECT_TRUE(r.converged);
+    EXPECT_LT(mm, 2.0) << trial;
+    EXPECT_LT(deg, 0.2) << trial;
+  }
 }
 
 TEST(OpenNi2, NonexistentUriIsAClearError) {
