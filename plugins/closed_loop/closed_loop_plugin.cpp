@@ -62,10 +62,10 @@ const projtour_param_desc kVerifyParams[] = {
      "largest observed error (mean over the corners) that passes; negative = the target's "
      "tolerance_mm"},
     {"frame_timeout_s", "number", "1.0", "no colour frame this long after a show: no_frame"},
-    {"outline_search_px", "integer", "48",
+    {"outline_search_px", "integer", "80",
      "the target's outline is looked for this far (colour pixels) from where the aligned pose "
      "puts it"},
-    {"min_outline_matched", "number", "0.45",
+    {"min_outline_matched", "number", "0.35",
      "share of the model's outline that must meet an image edge for the outline to count"},
     {"clear_outline_matched", "number", "0.7",
      "an outline matched this well moves the Model Points by whatever slide it sees; a fainter "

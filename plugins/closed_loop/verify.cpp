@@ -29,8 +29,8 @@ struct VerifySettings {
   double min_on_target = 0.95;
   double tolerance_mm = -1.0;  // negative: the target's tolerance_mm
   double frame_timeout_s = 1.0;
-  int outline_search_px = 48;
-  double min_outline_matched = 0.45;
+  int outline_search_px = 80;
+  double min_outline_matched = 0.35;
   double gross_slide_tolerances = 2.0;
   double clear_outline_matched = 0.7;
   double spread_sigmas = 4.0;
@@ -82,9 +82,10 @@ void check_verify_params(const Params& params) {
 namespace {
 
 // A gross slide also moves the outline more than this in the image (Canny places an edge to a
-// pixel) and matches it at most this share of the cost where the model has it.
+// pixel) and matches it at most this share of the cost where the model has it (a sign slid
+// sideways still matches its top and bottom edges unshifted: the share cannot be much lower).
 constexpr double kGrossShiftPx = 3.0;
-constexpr double kGrossCostShare = 0.7;
+constexpr double kGrossCostShare = 0.85;
 
 std::string fixed(double v, int digits) {
   std::ostringstream s;
