@@ -135,8 +135,8 @@ void BM_fit(benchmark::State& state) {
 }
 
 // Verify's outline check: the sign's model, slid 25 mm along its face, matched against the dark
-// frame's edges (search +-48 px). Counters: the slide it finds back (found_mm, of 25) and the
-// share of the outline matched.
+// frame's edges (search +-80 px, verify's default). Counters: the slide it finds back (found_mm, of
+// 25) and the share of the outline matched.
 void BM_outline_match(benchmark::State& state) {
   cv::setNumThreads(1);
   const Fixture& f = fixture();
@@ -147,9 +147,11 @@ void BM_outline_match(benchmark::State& state) {
   const ModelCloud model = test::rectangle_model(f.scene.surfaces[0], 0.003, T_true);
   const Eigen::Isometry3d T_slid = T_true * Eigen::Translation3d(0.025, 0.0, 0.0);
   const std::vector<float> model_z = light::model_depth(model, T_slid, f.rig.colour);
+  light::OutlineSettings settings;
+  settings.search_px = 80;
   std::optional<light::OutlineMatch> match;
   for (auto _ : state) {
-    match = light::match_outline(dark, model_z);
+    match = light::match_outline(dark, model_z, settings);
     benchmark::DoNotOptimize(match);
   }
   if (!match) {
