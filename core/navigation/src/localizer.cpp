@@ -32,8 +32,11 @@ struct Localizer::Impl {
 
 namespace {
 
-// Endpoints within this of an obstacle count as fitting the map.
+// Endpoints within this of a wall count as fitting the map, or within a cell and a half on a
+// coarse map: there the wall band's own cells lie a whole cell from free space, and "within
+// 0.2 m" could never pass on 0.2 m cells.
 constexpr double kFitDistanceM = 0.2;
+constexpr double kFitDistanceCells = 1.5;
 constexpr double kFitSmoothing = 0.5;  // weight of the newest scan
 constexpr std::size_t kFitRays = 60;
 
@@ -61,7 +64,8 @@ double scan_fit_at(const WallField& impl, const Pose2D& pose,
     const int cx = static_cast<int>(std::floor((end.x_m - impl.x_min_m) / impl.resolution_m));
     const int cy = static_cast<int>(std::floor((end.y_m - impl.y_min_m) / impl.resolution_m));
     if (cx >= 0 && cy >= 0 && cx < impl.distance_m.cols && cy < impl.distance_m.rows &&
-        impl.distance_m.at<float>(cy, cx) < kFitDistanceM) {
+        impl.distance_m.at<float>(cy, cx) <
+            std::max(kFitDistanceM, kFitDistanceCells * impl.resolution_m)) {
       ++fitting;
     }
   }

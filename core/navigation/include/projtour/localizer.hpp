@@ -65,8 +65,8 @@ class Localizer {
 
   PoseEstimate2D estimate() const;
   bool converged() const;
-  // Share of the last scans' endpoints (smoothed over updates) within 0.2 m of an obstacle on
-  // the map, seen from the estimate: 1 when the scans fit the map.
+  // Share of the last scans' endpoints (smoothed over updates) within 0.2 m (or a cell and a
+  // half, on a coarser map) of a wall on the map, seen from the estimate: 1 when the scans fit.
   double scan_fit() const;
   std::size_t particle_count() const;
 
