@@ -46,13 +46,6 @@ static CalibrateSettings read_settings(const Params& p) {
 
 namespace {
 
-std::string fixed(double v, int digits) {
-  std::ostringstream s;
-  s.precision(digits);
-  s << std::fixed << v;
-  return s.str();
-}
-
 const char* link_name(Link link) {
   return link == Link::pan ? "pan" : "tilt";
 }
@@ -139,16 +132,6 @@ std::optional<Outcome> Calibrate::tick(Context& ctx) {
   const Outcome outcome = measure(ctx);
   publish(ctx);
   return outcome;
-}
-
-void Calibrate::stop(Context& ctx) {
-  capture_.finish(ctx);
-}
-void Calibrate::pause(Context& ctx) {
-  capture_.pause(ctx);
-}
-void Calibrate::resume(Context& ctx) {
-  capture_.resume(ctx);
 }
 
 void Calibrate::publish(Context& ctx) const {

@@ -4,9 +4,7 @@
 #include <optional>
 
 #include "lit_capture.hpp"
-#include "projtour/behaviour.hpp"
 #include "projtour/blackboard_keys.hpp"
-#include "target_view.hpp"
 
 namespace projtour::light {
 class GrayCodeSequence;
@@ -17,15 +15,12 @@ namespace projtour::closed_loop {
 struct CalibrateSettings;
 void check_calibrate_params(const Params& params);
 
-class Calibrate : public Behaviour {
+class Calibrate : public LitStep {
  public:
   Calibrate(const Params& params, const RunContext& run);
   ~Calibrate() override;
   void start(Context& ctx) override;
   std::optional<Outcome> tick(Context& ctx) override;
-  void stop(Context& ctx) override;
-  void pause(Context& ctx) override;
-  void resume(Context& ctx) override;
 
  private:
   Outcome measure(Context& ctx);
@@ -33,11 +28,8 @@ class Calibrate : public Behaviour {
 
   std::unique_ptr<CalibrateSettings> settings_;
   std::unique_ptr<light::GrayCodeSequence> sequence_;
-  std::optional<TargetView> view_;
   cv::Mat mask_;
-  LitCapture capture_;
   CalibrateResult result_;
-  std::optional<Outcome> early_;
 };
 
 }  // namespace projtour::closed_loop

@@ -11,6 +11,7 @@
 #include "projtour/behaviour.hpp"
 #include "projtour/colour_frame.hpp"
 #include "projtour/context.hpp"
+#include "target_view.hpp"
 
 namespace projtour::closed_loop {
 
@@ -52,6 +53,21 @@ class LitCapture {
   double first_shown_s_ = 0.0;
   double last_frame_s_ = 0.0;
   bool active_ = false;
+};
+
+// A step that lights the target and records what the colour camera sees (calibrate, verify):
+// the target as align left it, the sequence's capture, and an outcome decided in start(). A stop,
+// a pause and a resume are the capture's.
+class LitStep : public Behaviour {
+ public:
+  void stop(Context& ctx) override { capture_.finish(ctx); }
+  void pause(Context& ctx) override { capture_.pause(ctx); }
+  void resume(Context& ctx) override { capture_.resume(ctx); }
+
+ protected:
+  std::optional<TargetView> view_;
+  LitCapture capture_;
+  std::optional<Outcome> early_;
 };
 
 }  // namespace projtour::closed_loop

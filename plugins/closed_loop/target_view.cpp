@@ -6,6 +6,13 @@
 
 namespace projtour::closed_loop {
 
+std::string fixed(double v, int digits) {
+  std::ostringstream s;
+  s.precision(digits);
+  s << std::fixed << v;
+  return s.str();
+}
+
 std::string target_prefix(const Context& ctx) {
   return ctx.target != nullptr ? "target " + ctx.target->id + ": " : std::string();
 }

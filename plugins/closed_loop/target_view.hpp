@@ -48,5 +48,7 @@ cv::Mat projector_mask(const TargetView& view, const PinholeModel& projector, in
 cv::Rect colour_roi(const TargetView& view, const PinholeModel& colour, int margin_px);
 
 std::string target_prefix(const Context& ctx);
+// `v` with `digits` decimals, for the steps' messages.
+std::string fixed(double v, int digits);
 
 }  // namespace projtour::closed_loop

@@ -87,13 +87,6 @@ namespace {
 constexpr double kGrossShiftPx = 3.0;
 constexpr double kGrossCostShare = 0.85;
 
-std::string fixed(double v, int digits) {
-  std::ostringstream s;
-  s.precision(digits);
-  s << std::fixed << v;
-  return s.str();
-}
-
 // Where the colour ray through `px` meets the target: the registered depth's surface, or where
 // the Kinect read nothing there (a grazing rim, its shadow beside an edge) the aligned model's
 // tangent plane at the Model Point.
@@ -182,16 +175,6 @@ std::optional<Outcome> Verify::tick(Context& ctx) {
   ctx.blackboard().set(keys::kVerify, result_);
   write_view(ctx);
   return outcome;
-}
-
-void Verify::stop(Context& ctx) {
-  capture_.finish(ctx);
-}
-void Verify::pause(Context& ctx) {
-  capture_.pause(ctx);
-}
-void Verify::resume(Context& ctx) {
-  capture_.resume(ctx);
 }
 
 Outcome Verify::measure(Context& ctx) {

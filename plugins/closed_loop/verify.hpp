@@ -4,24 +4,19 @@
 #include <optional>
 
 #include "lit_capture.hpp"
-#include "projtour/behaviour.hpp"
 #include "projtour/blackboard_keys.hpp"
-#include "target_view.hpp"
 
 namespace projtour::closed_loop {
 
 struct VerifySettings;
 void check_verify_params(const Params& params);
 
-class Verify : public Behaviour {
+class Verify : public LitStep {
  public:
   Verify(const Params& params, const RunContext& run);
   ~Verify() override;
   void start(Context& ctx) override;
   std::optional<Outcome> tick(Context& ctx) override;
-  void stop(Context& ctx) override;
-  void pause(Context& ctx) override;
-  void resume(Context& ctx) override;
 
  private:
   Outcome measure(Context& ctx);
@@ -29,11 +24,8 @@ class Verify : public Behaviour {
 
   std::unique_ptr<VerifySettings> settings_;
   std::unique_ptr<ContentWarper> warper_;
-  std::optional<TargetView> view_;
   std::vector<cv::Mat> frames_;  // dark, dots, the content area lit white
-  LitCapture capture_;
   VerifyResult result_;
-  std::optional<Outcome> early_;
 };
 
 }  // namespace projtour::closed_loop
