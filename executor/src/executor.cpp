@@ -262,10 +262,13 @@ std::optional<std::size_t> Executor::choose_next_target(const StateSpec& for_eac
     first_target_.reset();
     if (first < n && done_.count(first) == 0) return first;
   }
-  std::vector<std::size_t> remaining;
+  // Deferred targets wait until every other one has had its visit.
+  std::vector<std::size_t> remaining, deferred;
   for (std::size_t i = 0; i < n; ++i) {
-    if (done_.count(i) == 0) remaining.push_back(i);
+    if (done_.count(i) != 0) continue;
+    (deferred_.count(i) != 0 ? deferred : remaining).push_back(i);
   }
+  if (remaining.empty()) remaining = deferred;
   if (remaining.empty()) return std::nullopt;
   const std::string& order = for_each.order.empty() ? run_.mission->order : for_each.order;
   if (order != "nearest") return remaining.front();
@@ -401,6 +404,8 @@ void Executor::follow(const StateSpec& from, const TransitionSpec& transition,
     request_enter(*next);
   } else if (chosen == kSkipTarget) {
     end_visit("skipped", why);
+  } else if (chosen == kDeferTarget) {
+    defer_visit(why);
   } else if (chosen == kAbort) {
     abort_tour(from.path + ": " + why);
   } else {
@@ -446,18 +451,45 @@ void Executor::unwind_to(const StateSpec* keep) {
 
 // Records the visit in progress as done with `outcome` and leaves its for_each state.
 void Executor::close_visit(const std::string& outcome, const std::string& reason) {
-  const StateSpec* for_each = visit_state_;
-  unwind_to(for_each);
   record_.outcome = outcome;
   record_.reason = reason;
   record_.retries = retries_taken();
   records_.push_back(record_);
   done_.insert(record_.index);
+  leave_visit_state();
+  for (ExecutorObserver* o : observers_) o->on_target_done(records_.back());
+}
+
+void Executor::leave_visit_state() {
+  const StateSpec* for_each = visit_state_;
+  unwind_to(for_each);
   active_.pop_back();
   emit(EventType::exit, *for_each);
   current_target_.reset();
   visit_state_ = nullptr;
-  for (ExecutorObserver* o : observers_) o->on_target_done(records_.back());
+}
+
+// The visit ends unrecorded and its target goes after every other one left; the second time,
+// or with nothing else left to visit first, it is skipped.
+void Executor::defer_visit(const std::string& reason) {
+  const std::size_t index = record_.index;
+  bool others_left = false;
+  for (std::size_t i = 0; i < target_count(); ++i) {
+    others_left |= i != index && done_.count(i) == 0 && deferred_.count(i) == 0;
+  }
+  if (deferred_.count(index) != 0 || !others_left) {
+    end_visit("skipped",
+              reason + (deferred_.count(index) != 0 ? " (again, after it was left for later)"
+                                                    : " (no other target left to visit first)"));
+    return;
+  }
+  deferred_.insert(index);
+  if (run_.log != nullptr) {
+    run_.log->warning("target " + record_.id + ": left for later in the tour (" + reason + ")");
+  }
+  const StateSpec* for_each = visit_state_;
+  leave_visit_state();
+  begin_visit(*for_each);
 }
 
 void Executor::end_visit(const std::string& outcome, const std::string& reason) {

@@ -9,7 +9,7 @@
 namespace projtour {
 
 bool is_reserved_target(const std::string& name) {
-  return name == kSkipTarget || name == kFinish || name == kAbort;
+  return name == kSkipTarget || name == kDeferTarget || name == kFinish || name == kAbort;
 }
 
 const TransitionSpec* StateSpec::transition(const std::string& outcome) const {
@@ -256,7 +256,7 @@ class MachineReader {
       field["initial"].error(message);
     }
     std::vector<std::string> candidates = names;
-    for (const char* r : {kSkipTarget, kFinish, kAbort}) candidates.push_back(r);
+    for (const char* r : {kSkipTarget, kDeferTarget, kFinish, kAbort}) candidates.push_back(r);
     for (const auto& c : composite.children) {
       const YamlField child_field = states[c->name];
       check_transitions(child_field, *c, candidates);
@@ -286,8 +286,9 @@ class MachineReader {
       for (std::size_t i = 0; i < t.targets.size(); ++i) {
         const std::string& target = t.targets[i];
         const YamlField where = value.is_sequence() ? value[i] : value;
-        if (target == kSkipTarget && state.parent->enclosing_for_each() == nullptr) {
-          where.error("skip_target outside a for_each: target state");
+        if ((target == kSkipTarget || target == kDeferTarget) &&
+            state.parent->enclosing_for_each() == nullptr) {
+          where.error(target + " outside a for_each: target state");
         } else if (!is_reserved_target(target) && state.parent->child(target) == nullptr) {
           std::string message = "transition to unknown state \"" + target + "\"";
           const std::string suggestion = closest_match(target, candidates);

@@ -155,7 +155,7 @@ class DataFlow {
     if (t.retry) targets.push_back(for_each != nullptr ? kSkipTarget : kAbort);
     for (const std::string& target : targets) {
       if (target == kAbort) continue;
-      if (target == kSkipTarget) {
+      if (target == kSkipTarget || target == kDeferTarget) {
         if (for_each != nullptr) next_visit(*for_each, out, seen);
       } else if (target == kFinish) {
         complete(*from.parent, new_visit, out, seen);

@@ -84,6 +84,7 @@ states:
         on:
           succeeded: next
           off_screen: [aim, skip_target]
+          blocked_beam: defer_target              # someone stood in the light: come back later
           failed: skip_target
       next:
         behaviour: next

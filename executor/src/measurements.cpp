@@ -43,7 +43,11 @@ void measure_align(const Context& ctx, const AlignResult& result, GroundTruth* t
 
 void measure_project(const Context& ctx, const ProjectResult& result, GroundTruth* truth,
                      TargetMeasurements& out) {
-  if (result.shown_s) out.projected_s = *result.shown_s;
+  if (result.shown_s) {
+    out.projected_s = *result.shown_s;
+    out.beam_interruptions = result.beam_interruptions;
+    out.blanked_s = result.blanked_s;
+  }
   if (truth == nullptr || ctx.target == nullptr) return;
   const auto& before = result.pixels_before_align;
   const auto& after = result.pixels_after_align;

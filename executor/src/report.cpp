@@ -1,6 +1,7 @@
 #include "projtour_executor/report.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
@@ -37,6 +38,23 @@ Json build_report(const RunSummary& summary) {
   timing["mission_s"] = summary.mission_s;
   report["timing"] = std::move(timing);
   report["targets"] = in_mission_order(summary.targets);
+  if (summary.building) {
+    const BuildingTruth& b = *summary.building;
+    Json building = Json::object();
+    building["people"] = b.people;
+    building["unmapped_objects"] = b.unmapped_objects;
+    // Infinite when nothing was ever near: JSON has no infinity.
+    building["min_clearance_m"] =
+        std::isfinite(b.min_clearance_m) ? Json(b.min_clearance_m) : Json();
+    building["min_clearance_to"] = b.min_clearance_to;
+    building["required_clearance_m"] = b.required_clearance_m;
+    building["clearance_violations"] = b.clearance_violations;
+    building["lit_on_head_ticks"] = b.lit_on_head_ticks;
+    building["lit_on_head_s"] = b.lit_on_head_s;
+    building["lit_on_person_ticks"] = b.lit_on_person_ticks;
+    building["lit_on_person_s"] = b.lit_on_person_s;
+    report["building"] = std::move(building);
+  }
   return report;
 }
 

@@ -162,6 +162,7 @@ class TourTrace : public ExecutorObserver {
     }
     if (GroundTruth* truth = run_.drivers->ground_truth()) {
       true_.push_back(pose2d_from_isometry(truth->true_T_map_base()));
+      for (const Eigen::Vector2d& p : truth->people_positions()) people_.push_back(p);
     }
     if (const NavigateResult* navigated = run_.blackboard->find(keys::kNavigate)) {
       visit_path_ = navigated->planned_path;
@@ -191,6 +192,7 @@ class TourTrace : public ExecutorObserver {
     if (!visit_path_.empty()) input.planned_paths.push_back(visit_path_);
     input.estimated_trajectory = estimated_;
     input.true_trajectory = true_;
+    input.people_samples = people_;
     return input;
   }
 
@@ -212,6 +214,7 @@ class TourTrace : public ExecutorObserver {
   double last_sample_s_ = -1e9;
   std::vector<Pose2D> estimated_;
   std::vector<Pose2D> true_;
+  std::vector<Eigen::Vector2d> people_;
   std::vector<Pose2D> visit_path_;
   std::vector<std::vector<Pose2D>> paths_;
 };
@@ -498,7 +501,8 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     err << "projtour: aborted: " << executor.abort_reason() << "\n";
   }
 
-  const RunSummary summary = make_summary(executor.outcome());
+  RunSummary summary = make_summary(executor.outcome());
+  if (GroundTruth* truth = drivers.ground_truth()) summary.building = truth->building_truth();
   try {
     write_checkpoint();
     write_file_atomically(run_dir / "report.json", dump_json(build_report(summary), 2) + "\n");

@@ -167,6 +167,8 @@ const std::set<std::string> kKnownTargetFields = {"id",
                                                   "reason",
                                                   "retries",
                                                   "projected_s",
+                                                  "beam_interruptions",
+                                                  "blanked_s",
                                                   "align",
                                                   "localization_error",
                                                   "target_pose_error",
@@ -186,6 +188,10 @@ void target_figures(std::ostringstream& h, const Json& t) {
   if (at_path(t, {"retries"}) != nullptr)
     rows.emplace_back("retries", html_escape(text(t, {"retries"})));
   if (auto s = number(t, {"projected_s"})) rows.emplace_back("projected for", fixed(*s, 1) + " s");
+  if (auto n = number(t, {"beam_interruptions"}); n && *n > 0) {
+    rows.emplace_back("beam guard", fixed(*n, 0) + " interruptions, blanked " +
+                                        fixed(number(t, {"blanked_s"}).value_or(0.0), 1) + " s");
+  }
   if (at_path(t, {"align"}) != nullptr) {
     const auto iterations = number(t, {"align", "iterations"});
     const auto inliers = number(t, {"align", "inlier_fraction"});

@@ -132,6 +132,8 @@ void to_json(Json& j, const TargetRecord& r) {
   j["retries"] = r.retries;
   const TargetMeasurements& m = r.measurements;
   if (m.projected_s) j["projected_s"] = *m.projected_s;
+  if (m.beam_interruptions) j["beam_interruptions"] = *m.beam_interruptions;
+  if (m.blanked_s) j["blanked_s"] = *m.blanked_s;
   if (m.align) j["align"] = *m.align;
   if (m.localization_error) j["localization_error"] = *m.localization_error;
   if (m.target_pose_error) j["target_pose_error"] = *m.target_pose_error;
@@ -146,16 +148,19 @@ void to_json(Json& j, const TargetRecord& r) {
 
 void from_json(const Json& j, TargetRecord& r) {
   expect_object(j, "a target record");
-  reject_unknown(j, {"id", "outcome", "reason", "retries", "projected_s", "align",
-                     "localization_error", "target_pose_error", "projection_error_mm",
-                     "projection_error_px", "observed_error_mm", "observed_light_on_target",
-                     "projection_error_area_mm", "light_off_target_fraction", "calibration"});
+  reject_unknown(
+      j, {"id", "outcome", "reason", "retries", "projected_s", "beam_interruptions", "blanked_s",
+          "align", "localization_error", "target_pose_error", "projection_error_mm",
+          "projection_error_px", "observed_error_mm", "observed_light_on_target",
+          "projection_error_area_mm", "light_off_target_fraction", "calibration"});
   r.id = string_at(j, "id");
   r.outcome = string_at(j, "outcome");
   r.reason = j.contains("reason") ? string_at(j, "reason") : std::string();
   r.retries = int_at(j, "retries");
   TargetMeasurements m;
   read_optional_number(j, "projected_s", m.projected_s);
+  if (j.contains("beam_interruptions")) m.beam_interruptions = int_at(j, "beam_interruptions");
+  read_optional_number(j, "blanked_s", m.blanked_s);
   read_optional(j, "align", m.align);
   read_optional(j, "localization_error", m.localization_error);
   read_optional(j, "target_pose_error", m.target_pose_error);

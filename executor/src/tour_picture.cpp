@@ -259,6 +259,9 @@ cv::Mat render_tour_picture(const TourPictureInput& input) {
   if (!input.true_trajectory.empty()) {
     legend.push_back({LegendEntry::Swatch::line, bgr(kTrueTrajectoryColour), "true trajectory"});
   }
+  if (!input.people_samples.empty()) {
+    legend.push_back({LegendEntry::Swatch::line, bgr(kPeopleColour), "people (every 0.5 s)"});
+  }
   legend.push_back({LegendEntry::Swatch::dot, bgr(kStartColour), "start"});
   bool any_unvisited = false;
   for (const auto& t : input.targets) {
@@ -285,6 +288,10 @@ cv::Mat render_tour_picture(const TourPictureInput& input) {
   render_map(map, v).copyTo(area);
 
   const int line_px = std::max(2, static_cast<int>(std::lround(v.width_px / 600.0)));
+  // Under everything the robot did: the people are the background of its tour.
+  for (const Eigen::Vector2d& p : input.people_samples) {
+    cv::circle(area, v.to_px(p.x(), p.y()), std::max(1, line_px / 2), bgr(kPeopleColour), -1);
+  }
   for (const auto& path : input.planned_paths) {
     draw_polyline(area, v, path, bgr(kPlannedPathColour), line_px + 3);
   }

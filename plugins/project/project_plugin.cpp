@@ -4,6 +4,12 @@
 // frame is shown for the dwell time of mission time and the projector is blanked afterwards.
 // With `track`, each new depth frame re-aligns the target while the content is shown, and the
 // frame is re-warped (the projector stays lit) when the Model Points move past a threshold.
+//
+// The beam guard (core/light/beam_guard.hpp) watches every depth frame while the content is up:
+// anything in the lit frustum nearer than the target blanks the projector at once (the tick
+// that frame arrives on), and the content comes back once the beam has been clear for
+// beam_clear_s. Blanked time does not count towards the dwell, so the content is shown its full
+// time; blanked longer than beam_max_blocked_s in one go, the visit ends `blocked_beam`.
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -12,6 +18,7 @@
 #include <stdexcept>
 
 #include "content_source.hpp"
+#include "projtour/beam_guard.hpp"
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/kinematics.hpp"
 #include "projtour/model.hpp"
@@ -25,6 +32,14 @@ namespace {
 using project::PoseTracker;
 using project::read_track_settings;
 using project::TrackSettings;
+
+light::BeamGuardSettings read_guard_settings(const Params& params) {
+  light::BeamGuardSettings s;
+  s.margin_m = params.number("beam_margin_m");
+  s.guard_px = params.number("beam_guard_px");
+  s.min_points = static_cast<int>(params.number("beam_min_points"));
+  return s;
+}
 
 std::string fmt_quad(const Quad2d& q) {
   std::ostringstream s;
@@ -41,7 +56,11 @@ class Project : public Behaviour {
         planarity_warn_mm_(params.number("planarity_warn_mm")),
         min_area_px2_(params.number("min_area_px2")),
         track_(read_track_settings(params)),
-        tracker_(track_) {
+        tracker_(track_),
+        guard_enabled_(params.boolean("beam_guard")),
+        guard_(read_guard_settings(params)),
+        beam_clear_s_(params.number("beam_clear_s")),
+        beam_max_blocked_s_(params.number("beam_max_blocked_s")) {
     if (run.mission == nullptr) throw std::invalid_argument("project needs the mission's robot");
     // The undistortion maps depend only on the projector: computed once for the whole tour.
     warper_ = std::make_unique<ContentWarper>(run.mission->robot.projector.intrinsics);
@@ -53,6 +72,9 @@ class Project : public Behaviour {
     paused_ = false;
     content_.reset();
     tracking_ = false;
+    beam_blanked_ = false;
+    blanked_before_s_ = 0.0;
+    beam_clear_since_s_.reset();
     if (ctx.target == nullptr) throw std::runtime_error("project runs only inside a visit");
     // The calibration believed now: calibrate may have measured it on this very target.
     kinematics_ = std::make_unique<HeadKinematics>(
@@ -60,6 +82,7 @@ class Project : public Behaviour {
     early_ = prepare(ctx);
     if (early_) return;
     if (track_.enabled) start_tracking(ctx);
+    if (guard_enabled_) arm_guard(ctx, *ctx.blackboard().find(keys::kAlign));
     t_start_s_ = ctx.state_elapsed_s();
     result_.shown_s = 0.0;
     publish(ctx);
@@ -79,6 +102,26 @@ class Project : public Behaviour {
       return Outcome{kOutcomeCancelled, "cancelled while projecting"};
     }
     if (paused_) return std::nullopt;
+    std::optional<DepthFrame> frame;
+    if (guard_.armed() || tracking_) {
+      try {
+        frame = ctx.drivers().depth_camera->grab();
+      } catch (const DriverError& e) {
+        if (guard_.armed()) {
+          // Blind, the robot cannot keep anyone out of the light: dark is the safe state.
+          finish(ctx);
+          return Outcome{kOutcomeFailed, "target " + ctx.target->id + ": depth camera: " +
+                                             e.what() + "; the beam cannot be guarded"};
+        }
+        ctx.log().warning("target " + ctx.target->id + ": depth camera: " + e.what() +
+                          "; tracking stops");
+        tracking_ = false;
+      }
+    }
+    if (frame && guard_.armed()) {
+      if (auto blocked = guard_beam(ctx, *frame)) return blocked;
+    }
+    if (beam_blanked_) return std::nullopt;
     const double shown_s = elapsed_s(ctx);
     result_.shown_s = std::min(shown_s, dwell_s_);
     publish(ctx);
@@ -89,7 +132,7 @@ class Project : public Behaviour {
       s << std::fixed << "projected on " << ctx.target->id << " for " << dwell_s_ << " s";
       return Outcome{"succeeded", s.str()};
     }
-    if (tracking_) track(ctx);
+    if (tracking_ && frame) track(ctx, *frame);
     if (content_->is_video()) show_current(ctx, /*force=*/false);
     return std::nullopt;
   }
@@ -113,7 +156,7 @@ class Project : public Behaviour {
   void resume(Context& ctx) override {
     if (!paused_) return;
     paused_ = false;
-    ctx.drivers().projector->show(last_frame_);
+    if (!beam_blanked_) ctx.drivers().projector->show(last_frame_);
   }
 
  private:
@@ -189,19 +232,66 @@ class Project : public Behaviour {
     rejected_in_a_row_ = 0;
   }
 
-  // One camera frame, if a new one is ready: re-align, and re-warp when the quad has moved.
-  void track(Context& ctx) {
+  // Anything in the beam: blank now; clear again for beam_clear_s: show again. An outcome when
+  // the beam has stayed blocked too long.
+  std::optional<Outcome> guard_beam(Context& ctx, const DepthFrame& frame) {
+    const light::BeamIntrusion seen = guard_.check(frame, ctx.robot().camera.depth_to_color_m);
+    const double now_s = ctx.state_elapsed_s();
+    if (seen.blocked) {
+      beam_clear_since_s_.reset();
+      if (!beam_blanked_) {
+        ctx.drivers().projector->blank();
+        beam_blanked_ = true;
+        blanked_since_s_ = now_s;
+        ++result_.beam_interruptions;
+        std::ostringstream s;
+        s.precision(2);
+        s << std::fixed << "target " << ctx.target->id << ": something in the beam (" << seen.points
+          << " readings, " << seen.nearest_m << " m from the projector, the target "
+          << guard_.limit_m() + guard_.settings().margin_m << " m): blanked";
+        ctx.log().warning(s.str());
+      }
+      if (now_s - blanked_since_s_ > beam_max_blocked_s_) {
+        finish(ctx);
+        std::ostringstream s;
+        s.precision(1);
+        s << std::fixed << "target " << ctx.target->id << ": the beam stayed blocked for more than "
+          << beam_max_blocked_s_ << " s (" << seen.points << " readings in it)";
+        return Outcome{"blocked_beam", s.str()};
+      }
+      return std::nullopt;
+    }
+    if (!beam_blanked_) return std::nullopt;
+    if (!beam_clear_since_s_) beam_clear_since_s_ = now_s;
+    if (now_s - *beam_clear_since_s_ + 1e-9 >= beam_clear_s_) {
+      blanked_before_s_ += now_s - blanked_since_s_;
+      result_.blanked_s = blanked_before_s_;
+      beam_blanked_ = false;
+      beam_clear_since_s_.reset();
+      if (!paused_) ctx.drivers().projector->show(last_frame_);
+      publish(ctx);
+    }
+    return std::nullopt;
+  }
+
+  void arm_guard(Context& ctx, const AlignResult& aligned) {
     const std::string who = "target " + ctx.target->id + ": ";
-    std::optional<DepthFrame> frame;
-    try {
-      frame = ctx.drivers().depth_camera->grab();
-    } catch (const DriverError& e) {
-      ctx.log().warning(who + "depth camera: " + e.what() + "; tracking stops");
-      tracking_ = false;
+    if (!ctx.drivers().depth_camera || !aligned.model) {
+      ctx.log().warning(who + (aligned.model ? "no depth camera" : "no model from align") +
+                        ": the beam is not guarded");
       return;
     }
-    if (!frame) return;
-    const auto result = tracker_.update(*frame, ctx.robot().camera.depth_to_color_m);
+    const ProjectedQuad quad = project_model_points(
+        ctx.target->model_points, shown_T_projector_model_, ctx.robot().projector.intrinsics);
+    guard_.arm(kinematics_->T_projector_camera(warp_q_), ctx.robot().projector.intrinsics,
+               quad.ideal_pixels, *aligned.model,
+               kinematics_->T_projector_camera(warp_q_).inverse() * shown_T_projector_model_);
+  }
+
+  // One camera frame: re-align, and re-warp when the quad has moved.
+  void track(Context& ctx, const DepthFrame& frame) {
+    const std::string who = "target " + ctx.target->id + ": ";
+    const auto result = tracker_.update(frame, ctx.robot().camera.depth_to_color_m);
     if (!result) return;
     if (!tracker_.accepted(*result)) {
       // One bad frame is noise; many in a row mean the target is gone or occluded.
@@ -255,8 +345,9 @@ class Project : public Behaviour {
     rewarp_problem_.clear();
     warper_->set_target(content_->size(), quad);
     last_frame_ = warper_->warp(content_->frame_at(elapsed_s(ctx), nullptr));
-    ctx.drivers().projector->show(last_frame_);
+    if (!beam_blanked_) ctx.drivers().projector->show(last_frame_);
     shown_T_projector_model_ = T_projector_model;
+    if (guard_.armed()) arm_guard(ctx, *ctx.blackboard().find(keys::kAlign));
     result_.pixels_after_align = quad.pixels;
     publish(ctx);
     auto& stats = tracker_.stats();
@@ -270,14 +361,18 @@ class Project : public Behaviour {
 
   // Dwell and video time: state time, which stands still while paused (the projector is blank
   // then, so the content neither advances nor counts as shown).
-  double elapsed_s(const Context& ctx) const { return ctx.state_elapsed_s() - t_start_s_; }
+  // Blanked time (the beam guard) is left out too: the dwell is extended by the time lost.
+  double elapsed_s(const Context& ctx) const {
+    const double blanked_now_s = beam_blanked_ ? ctx.state_elapsed_s() - blanked_since_s_ : 0.0;
+    return ctx.state_elapsed_s() - t_start_s_ - blanked_before_s_ - blanked_now_s;
+  }
 
   void show_current(Context& ctx, bool force) {
     bool changed = false;
     const cv::Mat& frame = content_->frame_at(elapsed_s(ctx), &changed);
     if (!changed && !force) return;
     last_frame_ = warper_->warp(frame);
-    ctx.drivers().projector->show(last_frame_);
+    if (!beam_blanked_) ctx.drivers().projector->show(last_frame_);
     showing_ = true;
   }
 
@@ -290,6 +385,10 @@ class Project : public Behaviour {
     }
     const double shown_s = std::min(elapsed_s(ctx), dwell_s_);
     result_.shown_s = std::max(0.0, shown_s);
+    if (beam_blanked_) {
+      result_.blanked_s = blanked_before_s_ + ctx.state_elapsed_s() - blanked_since_s_;
+      beam_blanked_ = false;
+    }
     publish(ctx);
     ctx.drivers().projector->blank();
   }
@@ -316,11 +415,25 @@ class Project : public Behaviour {
   double t_start_s_ = 0.0;
   bool showing_ = false;
   bool paused_ = false;  // blanked by pause(): resume() shows last_frame_ again
+  bool guard_enabled_;
+  light::BeamGuard guard_;
+  double beam_clear_s_;
+  double beam_max_blocked_s_;
+  bool beam_blanked_ = false;  // by the beam guard
+  double blanked_since_s_ = 0.0;
+  double blanked_before_s_ = 0.0;  // earlier blanks of this visit
+  std::optional<double> beam_clear_since_s_;
 };
 
 void check_params(const Params& params) {
   if (params.number("planarity_warn_mm") < 0 || params.number("min_area_px2") < 0) {
     throw std::invalid_argument("planarity_warn_mm and min_area_px2 must be >= 0");
+  }
+  for (const char* key : {"beam_margin_m", "beam_guard_px", "beam_clear_s"}) {
+    if (!(params.number(key) >= 0)) throw std::invalid_argument(std::string(key) + " must be >= 0");
+  }
+  if (!(params.number("beam_min_points") >= 1) || !(params.number("beam_max_blocked_s") > 0)) {
+    throw std::invalid_argument("beam_min_points must be >= 1 and beam_max_blocked_s > 0");
   }
   read_track_settings(params);
 }
@@ -338,8 +451,19 @@ const projtour_param_desc kParams[] = {
      "track: each frame is cropped to the model's bounding sphere plus this"},
     {"planarity_warn_mm", "number", "5",
      "warn when the Model Points lie farther than this from a common plane"},
-    {"min_area_px2", "number", "100", "smaller projected quadrilaterals count as zero area"}};
-const char* const kOutcomes[] = {"succeeded", "off_screen"};
+    {"min_area_px2", "number", "100", "smaller projected quadrilaterals count as zero area"},
+    {"beam_guard", "boolean", "true",
+     "blank the projector while anything stands in the beam nearer than the target"},
+    {"beam_margin_m", "number", "0.10",
+     "beam guard: nearer than the target's nearest lit point by this counts"},
+    {"beam_guard_px", "number", "40",
+     "beam guard: the lit region grown by this on every side (projector pixels)"},
+    {"beam_min_points", "number", "30",
+     "beam guard: depth readings (every 2nd pixel each way) it takes to blank"},
+    {"beam_clear_s", "number", "1.0", "beam guard: shown again once clear this long"},
+    {"beam_max_blocked_s", "number", "15",
+     "beam guard: blanked longer than this in one go ends the visit blocked_beam"}};
+const char* const kOutcomes[] = {"succeeded", "off_screen", "blocked_beam"};
 const projtour_key_desc kKeys[] = {reads(keys::kAlign), reads_if_present(keys::kCalibration),
                                    writes(keys::kProject)};
 const projtour_kind_desc kKinds[] = {with_keys(

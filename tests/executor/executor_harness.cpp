@@ -92,7 +92,7 @@ const std::map<std::string, std::vector<std::string>>& tour_kinds() {
        {"verified", "out_of_tolerance", "misaligned", "uncertain", "occluded", "not_seen",
         "off_screen", "no_frame"}},
       {"wait", {"succeeded"}},
-      {"project", {"succeeded", "off_screen"}},
+      {"project", {"succeeded", "off_screen", "blocked_beam"}},
       {"next", {"succeeded"}},
       {"scripted", {"succeeded"}},
   };

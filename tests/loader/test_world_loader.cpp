@@ -92,6 +92,60 @@ TEST_F(WorldLoader, ShippedExampleLoadsAgainstAMissionWithItsTarget) {
   EXPECT_EQ(world->faults.size(), 3u);
 }
 
+TEST_F(WorldLoader, TheBuildingSections) {
+  Diagnostics diag;
+  const auto world =
+      load_world(PROJTOUR_SOURCE_DIR "/examples/worlds/busy_building.yaml", mission, diag);
+  ASSERT_TRUE(world) << diag.format();
+  EXPECT_DOUBLE_EQ(world->encoder_bias_pan_deg, 0.2);
+  EXPECT_DOUBLE_EQ(world->encoder_bias_tilt_deg, -0.1);
+  EXPECT_TRUE(world->depth_artefacts);
+  ASSERT_EQ(world->objects.size(), 2u);
+  EXPECT_EQ(world->objects[0].shape, WorldObjectSpec::Shape::box);
+  EXPECT_DOUBLE_EQ(world->objects[0].size_y_m, 0.4);
+  EXPECT_NEAR(world->objects[0].pose.yaw_rad, deg_to_rad(20.0), 1e-12);
+  EXPECT_EQ(world->objects[1].shape, WorldObjectSpec::Shape::cylinder);
+  EXPECT_DOUBLE_EQ(world->objects[1].size_x_m, 0.4);
+  EXPECT_DOUBLE_EQ(world->clutter.per_m, 0.05);
+  EXPECT_DOUBLE_EQ(world->clutter.max_height_m, 1.2);
+  EXPECT_TRUE(world->supports);
+  EXPECT_DOUBLE_EQ(world->map_error.wall_thinning_m, 0.05);
+  EXPECT_DOUBLE_EQ(world->map_error.shift_y_m, -0.02);
+  ASSERT_EQ(world->map_error.missing_walls.size(), 1u);
+  EXPECT_DOUBLE_EQ(world->map_error.missing_walls[0].thickness_m, 0.3);
+  EXPECT_EQ(world->map_error.extra_walls.size(), 1u);
+  ASSERT_EQ(world->glass.size(), 1u);
+  EXPECT_EQ(world->glass[0].b_m, Eigen::Vector2d(-0.5, -44.0));
+  EXPECT_EQ(world->people.walkers, 4);
+  ASSERT_EQ(world->people.list.size(), 2u);
+  EXPECT_EQ(world->people.list[0].route_m.size(), 2u);
+  EXPECT_TRUE(world->people.list[0].loop);
+  EXPECT_EQ(world->people.list[1].start_m, Eigen::Vector2d(-4.0, -45.0));
+  EXPECT_DOUBLE_EQ(world->people.list[1].start_s, 30.0);
+}
+
+TEST_F(WorldLoader, BuildingMistakesPointAtTheirField) {
+  EXPECT_THAT(
+      world_errors("objects:\n  - {type: box, x: 1, y: 2, size_m: [0.5], height_m: 1}\n"),
+      ElementsAre(dir + "/w.yaml:2:37: objects[0].size_m: expected 2 numbers [x, y], got 1"));
+  EXPECT_THAT(world_errors("objects:\n  - {type: cylinder, x: 1, y: 2, diameter_m: 0.3}\n"),
+              ElementsAre(dir + "/w.yaml:2:5: objects[0].height_m: missing required field"));
+  EXPECT_THAT(world_errors("people: {speed_mps: [1.5, 0.5]}\n"),
+              ElementsAre(dir + "/w.yaml:1:21: people.speed_mps: expected [min, max] with 0 < min "
+                                "<= max, got [1.5, 0.5]"));
+  EXPECT_THAT(world_errors("people:\n  list:\n    - {route: [[0, 0]]}\n"),
+              ElementsAre(dir + "/w.yaml:3:15: people.list[0].route: expected a route of at least "
+                                "2 waypoints [[x, y], ...], got 1"));
+  EXPECT_THAT(world_errors("glass:\n  - {from: [0, 0], to: [0, 0]}\n"),
+              ElementsAre(dir + "/w.yaml:2:24: glass[0].to: expected a wall of some length: `to` "
+                                "is `from`"));
+  EXPECT_THAT(world_errors("map_error: {wall_thining_m: 0.1}\n"),
+              ElementsAre(dir + "/w.yaml:1:13: map_error.wall_thining_m: unknown key "
+                                "\"wall_thining_m\"; did you mean \"wall_thinning_m\"?"));
+  EXPECT_THAT(world_errors("faults:\n  - {target: rabbit, type: person_standing, for_s: 0}\n"),
+              ElementsAre(dir + "/w.yaml:2:52: faults[0].for_s: expected a number > 0, got 0"));
+}
+
 TEST_F(WorldLoader, UnknownTargetIdSuggests) {
   EXPECT_THAT(world_errors(replace(kWorld, "rabbit:", "rabit:")),
               ElementsAre(dir +
@@ -109,12 +163,12 @@ TEST_F(WorldLoader, FaultOnUnknownTarget) {
 }
 
 TEST_F(WorldLoader, UnknownFaultType) {
-  EXPECT_THAT(
-      world_errors(replace(kWorld, "frame_dropout", "dropout")),
-      ElementsAre(dir + "/w.yaml:10:28: faults[0].type: expected one of frame_dropout, "
-                        "target_missing, occluder, blocked_path, kidnap, "
-                        "camera_disconnect, projector_failure, target_nudge, pole, daylight, got "
-                        "\"dropout\""));
+  EXPECT_THAT(world_errors(replace(kWorld, "frame_dropout", "dropout")),
+              ElementsAre(dir + "/w.yaml:10:28: faults[0].type: expected one of frame_dropout, "
+                                "target_missing, occluder, blocked_path, kidnap, "
+                                "camera_disconnect, projector_failure, target_nudge, pole, "
+                                "daylight, person_crossing, person_standing, got "
+                                "\"dropout\""));
 }
 
 TEST_F(WorldLoader, FaultValueNotANumber) {

@@ -23,6 +23,12 @@ GroundTruth* Driver::ground_truth() {
   return nullptr;
 }
 GroundTruth::~GroundTruth() = default;
+std::optional<BuildingTruth> GroundTruth::building_truth() const {
+  return std::nullopt;
+}
+std::vector<Eigen::Vector2d> GroundTruth::people_positions() const {
+  return {};
+}
 Behaviour::~Behaviour() = default;
 void Behaviour::stop(Context&) {}
 void Behaviour::pause(Context&) {}

@@ -118,6 +118,8 @@ class Executor {
   void composite_done(const StateSpec& composite);
   void close_visit(const std::string& outcome, const std::string& reason);
   void end_visit(const std::string& outcome, const std::string& reason);
+  void defer_visit(const std::string& reason);
+  void leave_visit_state();
   void unwind_to(const StateSpec* keep);
   void abort_tour(const std::string& reason);
   int retries_taken() const;
@@ -155,6 +157,7 @@ class Executor {
   bool visit_projected_ = false;  // the project behaviour succeeded in this visit
   std::vector<TargetRecord> records_;
   std::set<std::size_t> done_;
+  std::set<std::size_t> deferred_;  // visits left for later (defer_target), once each
   std::string abort_reason_;
   std::vector<std::string> ignored_cancel_;
   std::size_t transition_count_ = 0;

@@ -27,6 +27,9 @@
 namespace projtour {
 
 inline constexpr const char* kSkipTarget = "skip_target";
+// Leaves the visit unrecorded and comes back to its target after every other one left; a
+// target deferred once is skipped the next time (and when no other target is left).
+inline constexpr const char* kDeferTarget = "defer_target";
 inline constexpr const char* kFinish = "finish";
 inline constexpr const char* kAbort = "abort";
 // The one outcome of a composite: it completed (finish, a final child, or all targets visited).

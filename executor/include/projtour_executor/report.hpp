@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "projtour/ground_truth.hpp"
 #include "projtour/mission.hpp"
 #include "projtour_executor/events.hpp"
 #include "projtour_executor/executor.hpp"
@@ -25,9 +26,11 @@ struct RunSummary {
   std::vector<TargetRecord> targets;  // any order; written in mission order
   std::string reason;                 // why an aborted tour ended; written only when not empty
   std::vector<std::string> ignored_cancel;  // behaviours stopped by force; written when any
+  // The referee's figures of a building that is not the map (dry run); written when present.
+  std::optional<BuildingTruth> building;
 };
 
-// DESIGN.md's report.json, nothing more.
+// DESIGN.md's report.json, and the referee's `building` section of a dry run in a busy world.
 Json build_report(const RunSummary& summary);
 
 struct Checkpoint {

@@ -41,6 +41,9 @@ struct AreaError {
 // Absent fields were not measured (the *_error ones need the simulator's ground truth).
 struct TargetMeasurements {
   std::optional<double> projected_s;
+  // The beam guard's figures (project): interruptions and mission seconds blanked.
+  std::optional<int> beam_interruptions;
+  std::optional<double> blanked_s;
   std::optional<AlignFigures> align;
   std::optional<LocalizationError> localization_error;
   std::optional<TargetPoseError> target_pose_error;

@@ -27,7 +27,9 @@ struct TourPictureInput {
   std::vector<std::vector<Pose2D>> planned_paths;  // one polyline per target visit
   std::vector<Pose2D> estimated_trajectory;
   std::vector<Pose2D> true_trajectory;  // empty unless a dry run
-  std::string title;                    // e.g. the mission name; drawn above the legend
+  // Where the simulated people were, sampled every half second (dry run): their tracks.
+  std::vector<Eigen::Vector2d> people_samples;
+  std::string title;  // e.g. the mission name; drawn above the legend
 };
 
 struct RgbColour {
@@ -41,6 +43,7 @@ inline constexpr RgbColour kPlannedPathColour{30, 120, 255};
 inline constexpr RgbColour kEstimatedTrajectoryColour{170, 30, 200};
 inline constexpr RgbColour kTrueTrajectoryColour{0, 160, 160};
 inline constexpr RgbColour kStartColour{20, 20, 20};
+inline constexpr RgbColour kPeopleColour{255, 150, 40};
 RgbColour outcome_colour(const std::string& outcome);
 
 // The polyline without the vertices that lie within `tolerance_m` of the segment between the

@@ -370,11 +370,57 @@ bool Scene::intersect(const Eigen::Vector3f& origin, const Eigen::Vector3f& dir,
     }
   }
   if (!nodes_.empty()) intersect_bvh(origin.data(), dir.data(), hit);
+  if (!people_.empty()) intersect_people(origin, dir, hit);
   if (hit.object_id == kNoObject) {
     hit.t = std::numeric_limits<float>::infinity();
     return false;
   }
   return true;
+}
+
+void Scene::intersect_people(const Eigen::Vector3f& o, const Eigen::Vector3f& d,
+                             RayHit& hit) const {
+  const float a = d.x() * d.x() + d.y() * d.y();
+  for (const PersonShape& p : people_) {
+    // Body: the side of the cylinder, then its top disk.
+    const float ox = o.x() - p.centre_m.x(), oy = o.y() - p.centre_m.y();
+    const float r2 = p.radius_m * p.radius_m;
+    if (a > 1e-12f) {
+      const float b = ox * d.x() + oy * d.y();
+      const float c = ox * ox + oy * oy - r2;
+      const float disc = b * b - a * c;
+      if (disc >= 0.0f) {
+        const float t = (-b - std::sqrt(disc)) / a;  // the near side; from inside, none
+        const float z = o.z() + t * d.z();
+        if (t > 1e-6f && t < hit.t && z >= 0.0f && z <= p.body_top_m) {
+          hit.t = t;
+          hit.object_id = p.object_id;
+          hit.normal = Eigen::Vector3f(ox + t * d.x(), oy + t * d.y(), 0.0f) / p.radius_m;
+        }
+      }
+    }
+    if (d.z() != 0.0f) {
+      const float t = (p.body_top_m - o.z()) / d.z();
+      const float x = ox + t * d.x(), y = oy + t * d.y();
+      if (t > 1e-6f && t < hit.t && x * x + y * y <= r2) {
+        hit.t = t;
+        hit.object_id = p.object_id;
+        hit.normal = Eigen::Vector3f::UnitZ();
+      }
+    }
+    // Head.
+    const Eigen::Vector3f oc = o - Eigen::Vector3f(p.centre_m.x(), p.centre_m.y(), p.head_z_m);
+    const float aa = d.squaredNorm(), bb = oc.dot(d);
+    const float disc = bb * bb - aa * (oc.squaredNorm() - p.head_radius_m * p.head_radius_m);
+    if (disc >= 0.0f) {
+      const float t = (-bb - std::sqrt(disc)) / aa;
+      if (t > 1e-6f && t < hit.t) {
+        hit.t = t;
+        hit.object_id = p.object_id;
+        hit.normal = (oc + t * d) / p.head_radius_m;
+      }
+    }
+  }
 }
 
 }  // namespace projtour::sim

@@ -33,6 +33,9 @@ void Scene::intersect4(const Eigen::Vector3f& origin, const float dir_x[4], cons
   }
   if (!nodes_.empty()) intersect_bvh4(origin.data(), dir_x, dir_y, dir_z, hits);
   for (int k = 0; k < 4; ++k) {
+    if (!people_.empty()) {
+      intersect_people(origin, Eigen::Vector3f(dir_x[k], dir_y[k], dir_z[k]), hits[k]);
+    }
     if (hits[k].object_id == kNoObject) hits[k].t = kInf;
   }
 }

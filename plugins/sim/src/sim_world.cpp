@@ -19,6 +19,7 @@
 #include <random>
 #include <sstream>
 
+#include "building.hpp"
 #include "projtour/geometry.hpp"
 #include "projtour/kinematics.hpp"
 #include "projtour/model.hpp"
@@ -36,10 +37,28 @@ constexpr int kFloorId = 0;
 constexpr int kWallId = 1;
 constexpr int kObstacleId = 2;
 constexpr int kFirstTargetId = 10;
+// People after every target (a long day's tour has hundreds of objects).
+constexpr int kFirstPersonId = 1000000;
+// What counts as lit in a projector frame: above the black level of a blanked pixel.
+constexpr int kLitLevel = 8;
+// The referee's clearance: the robot's radius plus this to any object or person.
+constexpr double kClearanceMarginM = 0.10;
+// People stop short of the robot: their edge no nearer its centre than its radius plus this.
+constexpr double kPeopleKeepOffM = 0.15;
 
 // Independent random streams, so e.g. grabbing one more frame does not change the laser noise.
 // New streams go at the end: the others' seeds, and so every existing run, stay as they were.
-enum class Stream : std::uint64_t { setup = 1, odometry, laser, encoder, depth, faults, colour };
+enum class Stream : std::uint64_t {
+  setup = 1,
+  odometry,
+  laser,
+  encoder,
+  depth,
+  faults,
+  colour,
+  building,
+  people
+};
 
 // What the colour camera sees each kind of object as (linear B, G, R reflectance): white-ish
 // targets that take the content well, mid-grey walls and obstacles, a dark brownish floor.
@@ -47,6 +66,7 @@ constexpr Albedo kTargetAlbedo{0.8f, 0.8f, 0.8f};
 constexpr Albedo kWallAlbedo{0.5f, 0.5f, 0.5f};
 constexpr Albedo kObstacleAlbedo{0.4f, 0.42f, 0.45f};
 constexpr Albedo kFloorAlbedo{0.14f, 0.18f, 0.22f};
+constexpr Albedo kPersonAlbedo{0.25f, 0.3f, 0.35f};
 
 // The pole fault's shape: a 16-sided prism is round to within 2 % of its diameter.
 constexpr int kPoleSides = 16;
@@ -127,30 +147,6 @@ TriangleMesh perturbed_mesh(const TriangleMesh& mesh, double rms_m, std::mt19937
   return out;
 }
 
-// A vertical prism around the z axis from z = 0 up to height_m, its corners on the circle of
-// radius_m.
-TriangleMesh prism_mesh(double radius_m, double height_m, int sides) {
-  TriangleMesh mesh;
-  for (int k = 0; k < sides; ++k) {
-    const double a = 2.0 * kPi * k / sides;
-    const float x = static_cast<float>(radius_m * std::cos(a));
-    const float y = static_cast<float>(radius_m * std::sin(a));
-    mesh.vertices.emplace_back(x, y, 0.0f);
-    mesh.vertices.emplace_back(x, y, static_cast<float>(height_m));
-  }
-  const int bottom = 2 * sides, top = 2 * sides + 1;
-  mesh.vertices.emplace_back(0.0f, 0.0f, 0.0f);
-  mesh.vertices.emplace_back(0.0f, 0.0f, static_cast<float>(height_m));
-  for (int k = 0; k < sides; ++k) {
-    const int j = (k + 1) % sides;
-    mesh.triangles.emplace_back(2 * k, 2 * j, 2 * j + 1);
-    mesh.triangles.emplace_back(2 * k, 2 * j + 1, 2 * k + 1);
-    mesh.triangles.emplace_back(bottom, 2 * j, 2 * k);
-    mesh.triangles.emplace_back(top, 2 * k + 1, 2 * j + 1);
-  }
-  return mesh;
-}
-
 }  // namespace
 
 struct SimWorld::Impl {
@@ -200,7 +196,23 @@ struct SimWorld::Impl {
   // object being projected on is ever asked about, so one is kept.
   mutable std::optional<std::pair<std::size_t, Scene>> alone_cache;
   std::vector<Box2> obstacles;  // blocked_path boxes and poles, for the bumper
-  SceneBuilder fixed_parts;     // floor, walls and obstacles: all the scene but the targets
+  // The building (building.hpp). `grid` holds its walls, glass included (the bumper's);
+  // `laser_grid` the same without the glass (what the laser and the cameras see).
+  std::shared_ptr<mrpt::maps::COccupancyGridMap2D> laser_grid;
+  std::vector<Footprint> footprints;  // unmapped objects: laser, bumper, referee
+  std::vector<Footprint> glass;       // the bumper's only
+  std::unique_ptr<Crowd> crowd;
+  double robot_radius_m = 0.35;
+  struct PersonFault {
+    std::size_t target = 0;
+    const FaultSpec* fault = nullptr;
+    bool done = false;
+  };
+  std::vector<PersonFault> person_faults;
+  // The referee's figures of the building (see sim_world.hpp).
+  BuildingFigures figures;
+  bool in_violation = false;
+  SceneBuilder fixed_parts;  // floor, walls and obstacles: all the scene but the targets
   Scene scene;
   std::uint64_t scene_version = 0;  // counts rebuilds: the colour camera keeps geometry per scene
   std::unique_ptr<DepthRenderer> depth_renderer;
@@ -237,6 +249,7 @@ struct SimWorld::Impl {
   std::optional<double> frame_due_s;
   std::uint64_t frame_sequence = 0;
   IdealDepth ideal;
+  std::optional<std::pair<std::uint64_t, Eigen::Isometry3d>> ideal_key;  // what `ideal` shows
 
   // Colour camera. Its renderer is made on first use: most runs never grab a colour frame.
   double next_colour_frame_s = 0.0;
@@ -308,6 +321,17 @@ struct SimWorld::Impl {
   }
 
   bool collides(const Pose2D& p) const {
+    const Eigen::Vector2d xy(p.x_m, p.y_m);
+    for (const auto* list : {&footprints, &glass}) {
+      for (const Footprint& f : *list) {
+        if (f.distance_m(xy) < robot_radius_m) return true;
+      }
+    }
+    if (crowd) {
+      for (const PersonShape& s : crowd->shapes()) {
+        if ((s.centre_m.cast<double>() - xy).norm() < robot_radius_m + s.radius_m) return true;
+      }
+    }
     for (const auto& b : obstacles) {
       const Eigen::Vector2d c(std::clamp(p.x_m, b.lo.x(), b.hi.x()),
                               std::clamp(p.y_m, b.lo.y(), b.hi.y()));
@@ -379,8 +403,10 @@ struct SimWorld::Impl {
     head_moving_now = q_true.pan_rad != before.pan_rad || q_true.tilt_rad != before.tilt_rad;
     if (head_moving_now) at_rest_since_s = t_s;
     const double sigma = deg_to_rad(world.encoder_noise_deg);
-    q_measured.pan_rad = q_true.pan_rad + sigma * gaussian(rng_encoder);
-    q_measured.tilt_rad = q_true.tilt_rad + sigma * gaussian(rng_encoder);
+    q_measured.pan_rad =
+        q_true.pan_rad + deg_to_rad(world.encoder_bias_pan_deg) + sigma * gaussian(rng_encoder);
+    q_measured.tilt_rad =
+        q_true.tilt_rad + deg_to_rad(world.encoder_bias_tilt_deg) + sigma * gaussian(rng_encoder);
   }
 
   void simulate_scan() {
@@ -395,7 +421,8 @@ struct SimWorld::Impl {
     out.ranges_m.assign(static_cast<std::size_t>(std::max(spec.rays, 0)),
                         static_cast<float>(spec.max_range_m));
     out.valid.assign(out.ranges_m.size(), 0);
-    if (grid && spec.rays > 0) {
+    const std::shared_ptr<mrpt::maps::COccupancyGridMap2D>& walls = laser_grid ? laser_grid : grid;
+    if (walls && spec.rays > 0) {
       mrpt::obs::CObservation2DRangeScan obs;
       obs.aperture = static_cast<float>(fov);
       obs.maxRange = static_cast<float>(spec.max_range_m);
@@ -404,17 +431,180 @@ struct SimWorld::Impl {
       const Pose2D p = true_pose();
       // Noise is added here from the run's own stream: MRPT's would come from its global
       // generator, which other parts of the run share.
-      grid->laserScanSimulator(obs, mrpt::poses::CPose2D(p.x_m, p.y_m, p.yaw_rad), laser_threshold,
-                               static_cast<size_t>(spec.rays), 0.0f);
+      walls->laserScanSimulator(obs, mrpt::poses::CPose2D(p.x_m, p.y_m, p.yaw_rad), laser_threshold,
+                                static_cast<size_t>(spec.rays), 0.0f);
+      const std::vector<double> near_m = unmapped_ranges(out, p);
       for (std::size_t i = 0; i < out.ranges_m.size() && i < obs.getScanSize(); ++i) {
-        if (!obs.getScanRangeValidity(i)) continue;
-        const double r = obs.getScanRange(i) + world.laser_range_noise_m * gaussian(rng_laser);
+        double r_true = obs.getScanRangeValidity(i) ? obs.getScanRange(i) : spec.max_range_m;
+        if (!near_m.empty()) r_true = std::min(r_true, near_m[i]);
+        if (r_true >= spec.max_range_m) continue;
+        const double r = r_true + world.laser_range_noise_m * gaussian(rng_laser);
         if (r <= 0.0 || r >= spec.max_range_m) continue;
         out.ranges_m[i] = static_cast<float>(r);
         out.valid[i] = 1;
       }
     }
     scan = std::move(out);
+  }
+
+  // Per ray of `scan`, the range to the nearest unmapped object or person in the laser's plane
+  // (infinity where none); empty when the building has none.
+  std::vector<double> unmapped_ranges(const LaserScan& scan, const Pose2D& base) const {
+    const bool people = crowd && !crowd->shapes().empty();
+    if (footprints.empty() && !people) return {};
+    const Eigen::Isometry3d T_map_laser = isometry_from_pose2d(base) * scan.T_base_laser;
+    const double z = T_map_laser.translation().z();
+    const Eigen::Vector2d origin = T_map_laser.translation().head<2>();
+    const Eigen::Vector3d x_axis = T_map_laser.linear().col(0);
+    const double yaw = std::atan2(x_axis.y(), x_axis.x());
+    // Only what the laser can reach is looked at.
+    std::vector<const Footprint*> reach;
+    for (const Footprint& f : footprints) {
+      if (z >= f.z_min_m && z <= f.z_max_m && f.distance_m(origin) < scan.max_range_m) {
+        reach.push_back(&f);
+      }
+    }
+    std::vector<Footprint> bodies;
+    if (people) {
+      for (const PersonShape& s : crowd->shapes()) {
+        if (z > s.body_top_m) continue;
+        Footprint f;
+        f.shape = Footprint::Shape::circle;
+        f.centre_m = s.centre_m.cast<double>();
+        f.half_m = Eigen::Vector2d::Constant(s.radius_m);
+        bodies.push_back(f);
+      }
+    }
+    for (const Footprint& f : bodies) reach.push_back(&f);
+    std::vector<double> out(scan.ranges_m.size(), std::numeric_limits<double>::infinity());
+    if (reach.empty()) return out;
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      const double a = yaw + scan.angle_min_rad + static_cast<double>(i) * scan.angle_increment_rad;
+      const Eigen::Vector2d dir(std::cos(a), std::sin(a));
+      for (const Footprint* f : reach) out[i] = std::min(out[i], f->ray_hit_m(origin, dir));
+    }
+    return out;
+  }
+
+  // The referee, every sub-step: the robot's clearance to every unmapped object and person.
+  void referee_clearance() {
+    const Pose2D p = true_pose();
+    const Eigen::Vector2d xy(p.x_m, p.y_m);
+    double nearest = std::numeric_limits<double>::infinity();
+    std::string what;
+    for (const Footprint& f : footprints) {
+      const double d = f.distance_m(xy);
+      if (d < nearest) {
+        nearest = d;
+        what = f.name;
+      }
+    }
+    if (crowd) {
+      for (const PersonShape& s : crowd->shapes()) {
+        const double d = (s.centre_m.cast<double>() - xy).norm() - s.radius_m;
+        if (d < nearest) {
+          nearest = d;
+          what = "person " + std::to_string(s.object_id - kFirstPersonId);
+        }
+      }
+    }
+    if (!std::isfinite(nearest)) return;
+    if (nearest < figures.min_clearance_m) {
+      figures.min_clearance_m = nearest;
+      figures.min_clearance_to = what;
+    }
+    const bool violation = nearest < robot_radius_m + kClearanceMarginM;
+    if (violation && !in_violation) ++figures.clearance_violations;
+    in_violation = violation;
+  }
+
+  // The referee, every tick: does the lit projector's light fall on anyone?
+  void referee_light(double dt_s) {
+    if (!lit || !crowd || crowd->shapes().empty() || shown.empty()) return;
+    const Eigen::Isometry3d T_map_projector = T_map_base() * head_true->T_base_projector(q_true);
+    const Eigen::Isometry3d T_projector_map = T_map_projector.inverse();
+    const PinholeModel& k = mission->robot.projector.intrinsics;
+    const Eigen::Vector3f origin = T_map_projector.translation().cast<float>();
+    auto lit_at = [&](const Eigen::Vector3d& p_map, int object_id) {
+      const Eigen::Vector3d p = T_projector_map * p_map;
+      if (p.z() <= 0.0) return false;
+      const auto px = k.project(p);
+      if (!px || !k.in_image(*px)) return false;
+      const cv::Vec3b c = shown.at<cv::Vec3b>(static_cast<int>(px->y()), static_cast<int>(px->x()));
+      if (std::max({c[0], c[1], c[2]}) <= kLitLevel) return false;
+      const Eigen::Vector3f dir = (p_map.cast<float>() - origin);
+      RayHit hit;
+      return scene.intersect(origin, dir, 1.0f + 1e-3f, hit) && hit.object_id == object_id;
+    };
+    bool head = false, body = false;
+    for (const PersonShape& s : crowd->shapes()) {
+      const Eigen::Vector3d c(s.centre_m.x(), s.centre_m.y(), s.head_z_m);
+      // The head's near side, and round it: light through any of them reaches the face.
+      const Eigen::Vector3d toward = (T_map_projector.translation() - c).normalized();
+      const Eigen::Vector3d side = toward.cross(Eigen::Vector3d::UnitZ()).normalized();
+      const double r = 0.9 * s.head_radius_m;
+      for (const Eigen::Vector3d& q :
+           {Eigen::Vector3d(c + r * toward), Eigen::Vector3d(c + r * side),
+            Eigen::Vector3d(c - r * side), Eigen::Vector3d(c + Eigen::Vector3d(0, 0, r)),
+            Eigen::Vector3d(c - Eigen::Vector3d(0, 0, r))}) {
+        head = head || lit_at(q, s.object_id);
+      }
+      const Eigen::Vector2d to_projector =
+          (T_map_projector.translation().head<2>() - s.centre_m.cast<double>()).normalized();
+      for (double z = 0.1; z < s.body_top_m; z += 0.1) {
+        const Eigen::Vector2d front = s.centre_m.cast<double>() + 0.95 * s.radius_m * to_projector;
+        body = body || lit_at(Eigen::Vector3d(front.x(), front.y(), z), s.object_id);
+      }
+    }
+    if (head) {
+      ++figures.lit_on_head_ticks;
+      figures.lit_on_head_s += dt_s;
+    }
+    if (head || body) {
+      ++figures.lit_on_person_ticks;
+      figures.lit_on_person_s += dt_s;
+    }
+  }
+
+  void people_faults_if_due() {
+    for (PersonFault& pf : person_faults) {
+      if (pf.done) continue;
+      const Target& t = targets[pf.target];
+      if (!t.first_shown_s) continue;
+      const FaultSpec& f = *pf.fault;
+      const double start_s = *t.first_shown_s + fault_value(f, "after_s", 1.0);
+      if (t_s + 1e-9 < start_s) continue;
+      pf.done = true;
+      const Eigen::Vector3d c3 = object(t).T_map_model.translation();
+      const Eigen::Vector2d c(c3.x(), c3.y());
+      Eigen::Vector2d toward(t.standoff.x_m - c.x(), t.standoff.y_m - c.y());
+      toward = toward.norm() > 1e-9 ? toward.normalized() : Eigen::Vector2d::UnitX();
+      const Eigen::Vector2d left(-toward.y(), toward.x());
+      const double speed = fault_value(f, "speed_mps", 1.0);
+      if (f.type == "person_standing") {
+        const Eigen::Vector2d spot = c + fault_value(f, "distance_m", 0.5) * toward;
+        crowd->add_scripted({spot + 2.5 * left, spot, spot + 2.5 * left},
+                            {0.0, fault_value(f, "for_s", 10.0), 0.0}, speed, t_s);
+      } else {
+        const Eigen::Vector2d mid = c + fault_value(f, "distance_m", 0.45) * toward;
+        const int times = std::max(1, static_cast<int>(fault_value(f, "times", 1.0)));
+        const double every_s = fault_value(f, "every_s", 8.0);
+        for (int k = 0; k < times; ++k) {
+          const double sign = k % 2 == 0 ? 1.0 : -1.0;
+          crowd->add_scripted({mid + sign * 2.0 * left, mid - sign * 2.0 * left}, {}, speed,
+                              t_s + k * every_s);
+        }
+      }
+      for (std::size_t i = 0; colour_renderer && i < crowd->size(); ++i) {
+        colour_renderer->set_albedo(kFirstPersonId + static_cast<int>(i), kPersonAlbedo);
+      }
+    }
+  }
+
+  void step_people(double dt_s) {
+    if (!crowd) return;
+    const Pose2D p = true_pose();
+    crowd->step(t_s, dt_s, Eigen::Vector2d(p.x_m, p.y_m), robot_radius_m + kPeopleKeepOffM);
   }
 
   void kidnap_if_arrived() {
@@ -446,6 +636,7 @@ struct SimWorld::Impl {
       if (!o.missing) builder.add_mesh(*o.mesh, o.T_map_model, o.object_id);
     }
     scene = builder.build();
+    if (crowd) scene.set_people(crowd->shapes());
     ++scene_version;
   }
 
@@ -458,6 +649,9 @@ struct SimWorld::Impl {
       colour_renderer->set_albedo(kFloorId, kFloorAlbedo);
       colour_renderer->set_albedo(kWallId, kWallAlbedo);
       colour_renderer->set_albedo(kObstacleId, kObstacleAlbedo);
+      for (std::size_t i = 0; crowd && i < crowd->size(); ++i) {
+        colour_renderer->set_albedo(kFirstPersonId + static_cast<int>(i), kPersonAlbedo);
+      }
     }
     return *colour_renderer;
   }
@@ -616,14 +810,27 @@ SimWorld::SimWorld(const RunContext& run) : impl_(std::make_unique<Impl>()) {
   w.head_true =
       std::make_unique<HeadKinematics>(robot.pan_tilt, robot.camera.mount, projector_true);
 
+  w.robot_radius_m = robot.base.radius_m;
+  std::mt19937_64 building = stream(w.seed, Stream::building);
   if (run.map) {
-    w.grid = std::make_shared<mrpt::maps::COccupancyGridMap2D>(*run.map);
+    w.grid = building_walls(*run.map, w.world.map_error,
+                            Eigen::Vector2d(run.mission->start.x_m, run.mission->start.y_m));
+  }
+  // Glass: the building's walls the laser and the cameras see through (the bumper does not).
+  auto without_glass = [&]() {
+    auto seen = std::make_shared<mrpt::maps::COccupancyGridMap2D>(*w.grid);
+    for (const WallSegmentSpec& g : w.world.glass) paint_segment(*seen, g, 1.0f);
+    return seen;
+  };
+  for (std::size_t i = 0; i < w.world.glass.size(); ++i) {
+    w.glass.push_back(glass_footprint(w.world.glass[i], "glass " + std::to_string(i)));
   }
 
   // Targets: true poses and true surfaces.
   SceneBuilder& builder = w.fixed_parts;
   builder.set_floor(0.0, kFloorId);
-  if (w.grid) builder.add_occupancy_walls(*w.grid, 2.0, kWallId);
+  if (w.grid)
+    builder.add_occupancy_walls(w.glass.empty() ? *w.grid : *without_glass(), 2.0, kWallId);
   // By model file: targets may share one.
   std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
   for (std::size_t i = 0; i < run.mission->targets.size(); ++i) {
@@ -752,7 +959,60 @@ SimWorld::SimWorld(const RunContext& run) : impl_(std::make_unique<Impl>()) {
         }
       }
     }
+    for (const FaultSpec& f : w.world.faults) {
+      if (f.target == spec.id && (f.type == "person_standing" || f.type == "person_crossing")) {
+        w.person_faults.push_back({i, &f, false});
+      }
+    }
     w.targets.push_back(std::move(t));
+  }
+
+  // The unmapped objects: listed, supports under the targets, clutter along the walls.
+  std::vector<std::pair<WorldObjectSpec, std::string>> unmapped;
+  for (std::size_t i = 0; i < w.world.objects.size(); ++i) {
+    unmapped.emplace_back(w.world.objects[i], "object " + std::to_string(i));
+  }
+  if (w.world.supports) {
+    for (const Impl::Object& o : w.objects) {
+      if (o.missing) continue;
+      std::string name = "support of " + o.model_key;
+      for (const Impl::Target& t : w.targets) {
+        if (t.object == static_cast<std::size_t>(&o - w.objects.data())) {
+          name = "support of " + t.spec->id;
+          break;
+        }
+      }
+      for (const WorldObjectSpec& s : target_supports(*o.mesh, o.T_map_model)) {
+        unmapped.emplace_back(s, name);
+      }
+    }
+  }
+  std::vector<Eigen::Vector2d> tour_places{{run.mission->start.x_m, run.mission->start.y_m}};
+  for (const Impl::Target& t : w.targets) {
+    tour_places.emplace_back(t.standoff.x_m, t.standoff.y_m);
+    tour_places.push_back(w.object(t).T_map_model.translation().head<2>());
+  }
+  if (w.grid) {
+    const auto clutter =
+        place_clutter(*w.grid, w.world.clutter, tour_places, w.robot_radius_m, building);
+    for (std::size_t i = 0; i < clutter.size(); ++i) {
+      unmapped.emplace_back(clutter[i], "clutter " + std::to_string(i));
+    }
+  }
+  for (const auto& [object, name] : unmapped) {
+    w.footprints.push_back(object_footprint(object, name));
+    add_object(builder, object, kObstacleId);
+  }
+  if (w.grid && !w.glass.empty()) w.laser_grid = without_glass();
+  const bool people_faults = !w.person_faults.empty();
+  if (w.world.people.walkers > 0 || !w.world.people.list.empty() || people_faults) {
+    std::vector<Footprint> blocking = w.footprints;
+    blocking.insert(blocking.end(), w.glass.begin(), w.glass.end());
+    std::vector<Eigen::Vector2d> homes;
+    for (const Impl::Target& t : w.targets) homes.emplace_back(t.standoff.x_m, t.standoff.y_m);
+    std::mt19937_64 people = stream(w.seed, Stream::people);
+    w.crowd = std::make_unique<Crowd>(w.world.people, w.grid.get(), blocking, homes, kFirstPersonId,
+                                      people());
   }
   w.rebuild_scene();
   w.depth_renderer = std::make_unique<DepthRenderer>(robot.camera.intrinsics);
@@ -789,13 +1049,27 @@ void SimWorld::advance(double t_s) {
     if (dt > 0.0) {
       w.step_base(dt);
       w.step_head(dt);
+      w.step_people(dt);
+      w.referee_clearance();
     }
     if (was_lit && (w.moving || w.head_moving_now)) w.lit_moving_s += dt;
   }
   w.t_s = t_s;
-  if (dt_total <= 0.0) w.step_head(0.0);
+  if (dt_total <= 0.0) {
+    w.step_head(0.0);
+    w.step_people(0.0);
+  }
   w.kidnap_if_arrived();
   w.nudge_if_due();
+  if (w.crowd) {
+    w.people_faults_if_due();
+    if (w.crowd->moved()) {
+      // The colour camera keeps its geometry per scene version: people who move change it.
+      w.scene.set_people(w.crowd->shapes());
+      ++w.scene_version;
+    }
+    w.referee_light(dt_total);
+  }
 
   const LaserSpec& laser = w.mission->robot.laser;
   if (t_s + 1e-9 >= w.next_scan_s) {
@@ -922,7 +1196,14 @@ std::optional<DepthFrame> SimWorld::grab() {
     frame.height = k.height;
     frame.depth_mm.assign(static_cast<std::size_t>(k.width) * k.height, 0);
   } else {
-    w.depth_renderer->render(w.scene, w.T_map_depth(), w.ideal, w.kinect.max_depth_m + 0.2);
+    // A still camera in a still scene sees the same ideal image: only the noise is new (the
+    // beam guard reads every frame of a dwell).
+    const Eigen::Isometry3d T_map_depth = w.T_map_depth();
+    if (!w.ideal_key || w.ideal_key->first != w.scene_version ||
+        !w.ideal_key->second.isApprox(T_map_depth, 0.0)) {
+      w.depth_renderer->render(w.scene, T_map_depth, w.ideal, w.kinect.max_depth_m + 0.2);
+      w.ideal_key.emplace(w.scene_version, T_map_depth);
+    }
     frame = apply_kinect_noise(w.ideal, k, w.kinect, w.rng_depth);
   }
   frame.t_s = t_frame;
@@ -1121,6 +1402,36 @@ void SimWorld::write_projection_views(
       alone, T_map_model,
       true_projection(*t->spec, T_map_model, alone, T_map_projector, k, pixels_after_align),
       "after alignment", colour_view, dir / "after.png");
+}
+
+const BuildingFigures& SimWorld::building_figures() const {
+  return impl_->figures;
+}
+
+std::vector<Eigen::Vector2d> SimWorld::people_positions() const {
+  std::vector<Eigen::Vector2d> out;
+  if (impl_->crowd) {
+    for (const auto& [index, at] : impl_->crowd->positions()) out.push_back(at);
+  }
+  return out;
+}
+
+std::optional<BuildingTruth> SimWorld::building_truth() const {
+  const Impl& w = *impl_;
+  if (!w.crowd && w.footprints.empty()) return std::nullopt;
+  const BuildingFigures& f = w.figures;
+  BuildingTruth out;
+  out.people = w.crowd ? static_cast<int>(w.crowd->size()) : 0;
+  out.unmapped_objects = static_cast<int>(w.footprints.size());
+  out.min_clearance_m = f.min_clearance_m;
+  out.min_clearance_to = f.min_clearance_to;
+  out.required_clearance_m = w.robot_radius_m + kClearanceMarginM;
+  out.clearance_violations = f.clearance_violations;
+  out.lit_on_head_ticks = f.lit_on_head_ticks;
+  out.lit_on_head_s = f.lit_on_head_s;
+  out.lit_on_person_ticks = f.lit_on_person_ticks;
+  out.lit_on_person_s = f.lit_on_person_s;
+  return out;
 }
 
 }  // namespace projtour::sim

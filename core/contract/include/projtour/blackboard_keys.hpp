@@ -60,6 +60,10 @@ struct ProjectResult {
   std::optional<ProjectorQuad> pixels_before_align;
   std::optional<ProjectorQuad> pixels_after_align;
   std::optional<Eigen::Isometry3d> T_camera_model_tracked;  // when tracking moved the pose
+  // The beam guard: how often someone in the beam blanked the projector, and for how long
+  // (mission seconds; the dwell is extended by as much).
+  int beam_interruptions = 0;
+  double blanked_s = 0.0;
 };
 
 // calibrate: the camera-projector calibration the robot believes in now. Tour scope: measured on

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "projtour/drivers.hpp"
 
@@ -31,6 +32,25 @@ struct ProjectionTruth {
   double mean_px() const;
 };
 
+// The referee's figures of a building that is not the map (a dry run whose world has unmapped
+// objects or people), over the run so far.
+struct BuildingTruth {
+  int people = 0;            // ever present
+  int unmapped_objects = 0;  // listed, clutter and supports
+  // Smallest distance from the robot's centre to the edge of any unmapped object or person,
+  // what it was, and how often it fell below required_clearance_m (the robot's radius + 0.1 m).
+  double min_clearance_m = 0.0;
+  std::string min_clearance_to;
+  double required_clearance_m = 0.0;
+  int clearance_violations = 0;
+  // Ticks (and mission seconds) the lit projector's light fell on a person's head, and on any
+  // part of a person.
+  int lit_on_head_ticks = 0;
+  double lit_on_head_s = 0.0;
+  int lit_on_person_ticks = 0;
+  double lit_on_person_s = 0.0;
+};
+
 class GroundTruth {
  public:
   virtual ~GroundTruth();
@@ -49,6 +69,10 @@ class GroundTruth {
   // it shaded, the projected quadrilateral where it really lands and the true Model Points;
   // beside it the colour camera's view of the content as last shown, with the true Model
   // Points and (when given) the corners the robot observed in that camera's pixels.
+  // nullopt in a world without unmapped objects or people.
+  virtual std::optional<BuildingTruth> building_truth() const;
+  // Where the people present now stand (map frame), for the tour picture.
+  virtual std::vector<Eigen::Vector2d> people_positions() const;
   virtual void write_projection_views(
       const std::string& target_id, const std::array<Eigen::Vector2d, 4>& pixels_before_align,
       const std::array<Eigen::Vector2d, 4>& pixels_after_align,

@@ -44,11 +44,26 @@ struct RayHit {
   Eigen::Vector3f normal = Eigen::Vector3f::Zero();  // unit geometric normal, world frame
 };
 
-// An immutable scene ready for ray queries (make one with SceneBuilder). Cheap to move; queries
-// are const and thread-safe.
+// A person as the sensors meet them: a vertical cylinder (the body, from the floor) under a
+// sphere (the head). Intersected analytically: people move every tick, and a BVH cannot.
+struct PersonShape {
+  Eigen::Vector2f centre_m = Eigen::Vector2f::Zero();
+  float radius_m = 0.25f;
+  float body_top_m = 1.48f;
+  float head_radius_m = 0.11f;
+  float head_z_m = 1.59f;
+  int object_id = kNoObject;
+};
+
+// A scene ready for ray queries (make one with SceneBuilder): immutable triangles and floor,
+// plus a moving layer of people set between queries. Cheap to move; queries are const and
+// thread-safe (set_people is not: call it only while nobody queries).
 class Scene {
  public:
   Scene() = default;
+
+  void set_people(std::vector<PersonShape> people) { people_ = std::move(people); }
+  const std::vector<PersonShape>& people() const { return people_; }
 
   // Closest hit with t in (0, t_max) along origin + t * dir (dir need not be unit). False when
   // nothing is hit.
@@ -75,6 +90,7 @@ class Scene {
     float m[12];
   };
   void intersect_bvh(const float o[3], const float d[3], RayHit& hit) const;
+  void intersect_people(const Eigen::Vector3f& o, const Eigen::Vector3f& d, RayHit& hit) const;
   void intersect_bvh4(const float o[3], const float dx[4], const float dy[4], const float dz[4],
                       RayHit hits[4]) const;
 
@@ -85,6 +101,7 @@ class Scene {
   bool has_floor_ = false;
   float floor_z_m_ = 0.0f;
   int floor_object_ = kNoObject;
+  std::vector<PersonShape> people_;
 };
 
 class SceneBuilder {

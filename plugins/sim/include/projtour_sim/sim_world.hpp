@@ -34,10 +34,26 @@
 //                      sunlight through a window floods the target's surroundings: the colour
 //                      camera's room light is that bright while the target is the active one
 //                      (the structured light and the verification dots drown in it).
+//   person_crossing    after_s (1.0), speed_mps (1.0), distance_m (0.45), times (1), every_s (8)
+//                      after_s after the projector first lit the target, a person walks across
+//                      the line from the target to its stand-off pose, distance_m in front of
+//                      the target, from 2 m to one side to 2 m to the other (then gone); again
+//                      `times` times every_s apart, each the other way.
+//   person_standing    after_s (1.0), for_s (10), distance_m (0.5), speed_mps (1.0)
+//                      a person walks in from 2.5 m to the side, stands for_s distance_m in
+//                      front of the target (in the beam), and walks off the way they came.
 // Faults other than the static obstacles (target_missing, occluder, blocked_path, pole) act while
 // their target is the one the robot is at: the nearest target within its stand-off + 1.5 m.
+//
+// The building (world keys objects, clutter, supports, map_error, glass, people; documented in
+// examples/worlds/busy_building.yaml; see building.hpp): its walls are the map's edited by the
+// map error, glass is in them for the bumper and not for the laser or the cameras, and the
+// unmapped objects and the people are met by the laser, the cameras, the light and the bumper
+// (the bumper at the robot's radius). The referee records the robot's clearance to each object
+// and person and whether lit light falls on anyone (BuildingFigures).
 #include <Eigen/Geometry>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -62,6 +78,21 @@ struct ProjectorEvent {
   bool base_moving = false;
   bool head_moving = false;
   std::string target;  // the active target, "" when none
+};
+
+// The referee's figures of the building (unmapped objects and people), over the whole run.
+struct BuildingFigures {
+  // Smallest distance from the robot's centre to the edge of any unmapped object or person,
+  // and what it was; a violation is each time it falls below the robot's radius + 0.10 m.
+  double min_clearance_m = std::numeric_limits<double>::infinity();
+  std::string min_clearance_to;
+  int clearance_violations = 0;
+  // Ticks (and mission seconds) the lit projector's light fell on a person's head, and on any
+  // part of a person.
+  int lit_on_head_ticks = 0;
+  double lit_on_head_s = 0.0;
+  int lit_on_person_ticks = 0;
+  double lit_on_person_s = 0.0;
 };
 
 class SimWorld : public GroundTruth {
@@ -117,6 +148,8 @@ class SimWorld : public GroundTruth {
   // Mission seconds the projector was lit while the base or the head moved (should stay 0).
   double lit_while_moving_s() const;
 
+  const BuildingFigures& building_figures() const;
+
   // The target whose faults act now ("" when none).
   std::string active_target() const;
   // The surface the camera sees (model frame): the mission's mesh plus the model error.
@@ -138,6 +171,8 @@ class SimWorld : public GroundTruth {
       const std::string& target_id,
       const std::array<Eigen::Vector2d, 4>& projector_px) const override;
   void set_visited_target(const std::string& target_id) override;
+  std::optional<BuildingTruth> building_truth() const override;
+  std::vector<Eigen::Vector2d> people_positions() const override;
   // Beside each view, the colour camera's: noise-free at the structured light's exposure, with
   // the frame last shown while this target was active, from where the robot stood then.
   void write_projection_views(

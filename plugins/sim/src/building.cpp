@@ -1,0 +1,544 @@
+// The building that is not the map: its walls, its unmapped objects and its people.
+#include "building.hpp"
+
+#include <mrpt/maps/COccupancyGridMap2D.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+
+#include "projtour/geometry.hpp"
+
+namespace projtour::sim {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Cells that read as free on a map (the planner's and the localizer's threshold).
+constexpr float kFree = 0.5f;
+constexpr float kOccupied = 0.5f;
+
+double uniform(std::mt19937_64& rng, double lo, double hi) {
+  return lo + (hi - lo) * static_cast<double>(rng() >> 11) * 0x1.0p-53;
+}
+
+bool in_grid(const mrpt::maps::COccupancyGridMap2D& g, int i, int j) {
+  return i >= 0 && j >= 0 && i < static_cast<int>(g.getSizeX()) &&
+         j < static_cast<int>(g.getSizeY());
+}
+
+double segment_distance_m(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
+                          const Eigen::Vector2d& b) {
+  const Eigen::Vector2d ab = b - a;
+  const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+  return (p - (a + t * ab)).norm();
+}
+
+Eigen::Isometry3d on_floor(const Pose2D& pose, double z_m) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(pose.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(pose.x_m, pose.y_m, z_m);
+  return T;
+}
+
+}  // namespace
+
+TriangleMesh prism_mesh(double radius_m, double height_m, int sides) {
+  TriangleMesh mesh;
+  for (int k = 0; k < sides; ++k) {
+    const double a = 2.0 * kPi * k / sides;
+    const float x = static_cast<float>(radius_m * std::cos(a));
+    const float y = static_cast<float>(radius_m * std::sin(a));
+    mesh.vertices.emplace_back(x, y, 0.0f);
+    mesh.vertices.emplace_back(x, y, static_cast<float>(height_m));
+  }
+  const int bottom = 2 * sides, top = 2 * sides + 1;
+  mesh.vertices.emplace_back(0.0f, 0.0f, 0.0f);
+  mesh.vertices.emplace_back(0.0f, 0.0f, static_cast<float>(height_m));
+  for (int k = 0; k < sides; ++k) {
+    const int j = (k + 1) % sides;
+    mesh.triangles.emplace_back(2 * k, 2 * j, 2 * j + 1);
+    mesh.triangles.emplace_back(2 * k, 2 * j + 1, 2 * k + 1);
+    mesh.triangles.emplace_back(bottom, 2 * j, 2 * k);
+    mesh.triangles.emplace_back(top, 2 * k + 1, 2 * j + 1);
+  }
+  return mesh;
+}
+
+double Footprint::distance_m(const Eigen::Vector2d& p) const {
+  if (shape == Shape::circle) return (p - centre_m).norm() - half_m.x();
+  const Eigen::Rotation2Dd R(yaw_rad);
+  const Eigen::Vector2d q = R.inverse() * (p - centre_m);
+  const Eigen::Vector2d d = q.cwiseAbs() - half_m;
+  const double outside = d.cwiseMax(0.0).norm();
+  return outside > 0.0 ? outside : std::max(d.x(), d.y());
+}
+
+double Footprint::ray_hit_m(const Eigen::Vector2d& origin, const Eigen::Vector2d& dir) const {
+  if (shape == Shape::circle) {
+    const Eigen::Vector2d oc = origin - centre_m;
+    const double b = oc.dot(dir), c = oc.squaredNorm() - half_m.x() * half_m.x();
+    const double disc = b * b - c;
+    if (disc < 0.0) return kInf;
+    const double t = -b - std::sqrt(disc);
+    return t > 0.0 ? t : kInf;
+  }
+  // Slabs in the rectangle's own frame.
+  const Eigen::Rotation2Dd R_inv(-yaw_rad);
+  const Eigen::Vector2d o = R_inv * (origin - centre_m), d = R_inv * dir;
+  double t0 = 0.0, t1 = kInf;
+  for (int k = 0; k < 2; ++k) {
+    if (std::abs(d[k]) < 1e-12) {
+      if (std::abs(o[k]) > half_m[k]) return kInf;
+      continue;
+    }
+    double a = (-half_m[k] - o[k]) / d[k], b = (half_m[k] - o[k]) / d[k];
+    if (a > b) std::swap(a, b);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, b);
+    if (t0 > t1) return kInf;
+  }
+  return t0 > 0.0 ? t0 : kInf;  // from inside: the laser sees nothing of it
+}
+
+std::shared_ptr<mrpt::maps::COccupancyGridMap2D> building_walls(
+    const mrpt::maps::COccupancyGridMap2D& map, const MapErrorSpec& error,
+    const Eigen::Vector2d& about_m) {
+  auto out = std::make_shared<mrpt::maps::COccupancyGridMap2D>(map);
+  const int nx = static_cast<int>(map.getSizeX()), ny = static_cast<int>(map.getSizeY());
+  const double res = map.getResolution();
+  if (error.rotation_deg != 0.0 || error.shift_x_m != 0.0 || error.shift_y_m != 0.0) {
+    // Each building cell takes the map cell it came from (nearest): the map is the building
+    // moved back.
+    const Eigen::Vector2d centre = error.rotation_about_m.value_or(about_m);
+    const Eigen::Rotation2Dd R_inv(-deg_to_rad(error.rotation_deg));
+    const Eigen::Vector2d shift(error.shift_x_m, error.shift_y_m);
+    for (int j = 0; j < ny; ++j) {
+      for (int i = 0; i < nx; ++i) {
+        const Eigen::Vector2d p(map.idx2x(i), map.idx2y(j));
+        const Eigen::Vector2d q = centre + R_inv * (p - shift - centre);
+        const int si = map.x2idx(q.x()), sj = map.y2idx(q.y());
+        out->setCell(i, j, in_grid(map, si, sj) ? map.getCell(si, sj) : 0.5f);
+      }
+    }
+  }
+  if (error.wall_thinning_m > 0.0) {
+    cv::Mat occupied(ny, nx, CV_8UC1);
+    for (int j = 0; j < ny; ++j) {
+      for (int i = 0; i < nx; ++i) {
+        occupied.at<std::uint8_t>(j, i) = out->getCell(i, j) < kOccupied ? 255 : 0;
+      }
+    }
+    // Distance (cells) from each occupied cell to the nearest one that is not; a wall's middle
+    // is where that distance peaks across it, and stays, so no wall vanishes.
+    cv::Mat depth_cells, peak;
+    cv::distanceTransform(occupied, depth_cells, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+    const int reach = static_cast<int>(std::ceil(error.wall_thinning_m / res)) + 1;
+    cv::dilate(
+        depth_cells, peak,
+        cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * reach + 1, 2 * reach + 1)));
+    for (int j = 0; j < ny; ++j) {
+      for (int i = 0; i < nx; ++i) {
+        const float d = depth_cells.at<float>(j, i);
+        if (d <= 0.0f) continue;
+        const bool middle = d >= peak.at<float>(j, i) - 0.5f;
+        if (!middle && (d - 0.5) * res < error.wall_thinning_m) out->setCell(i, j, 1.0f);
+      }
+    }
+  }
+  for (const WallSegmentSpec& w : error.missing_walls) paint_segment(*out, w, 1.0f);
+  for (const WallSegmentSpec& w : error.extra_walls) paint_segment(*out, w, 0.0f);
+  return out;
+}
+
+void paint_segment(mrpt::maps::COccupancyGridMap2D& grid, const WallSegmentSpec& wall,
+                   float free_p) {
+  const double res = grid.getResolution();
+  const double half = 0.5 * wall.thickness_m;
+  const Eigen::Vector2d lo = wall.a_m.cwiseMin(wall.b_m).array() - half - res;
+  const Eigen::Vector2d hi = wall.a_m.cwiseMax(wall.b_m).array() + half + res;
+  for (int j = grid.y2idx(lo.y()); j <= grid.y2idx(hi.y()); ++j) {
+    for (int i = grid.x2idx(lo.x()); i <= grid.x2idx(hi.x()); ++i) {
+      if (!in_grid(grid, i, j)) continue;
+      const Eigen::Vector2d c(grid.idx2x(i), grid.idx2y(j));
+      // A thin wall still takes the cells it crosses.
+      if (segment_distance_m(c, wall.a_m, wall.b_m) <= std::max(half, 0.5 * res)) {
+        grid.setCell(i, j, free_p);
+      }
+    }
+  }
+}
+
+Footprint glass_footprint(const WallSegmentSpec& wall, const std::string& name) {
+  Footprint f;
+  f.shape = Footprint::Shape::rect;
+  f.centre_m = 0.5 * (wall.a_m + wall.b_m);
+  const Eigen::Vector2d ab = wall.b_m - wall.a_m;
+  f.yaw_rad = std::atan2(ab.y(), ab.x());
+  f.half_m = Eigen::Vector2d(0.5 * ab.norm(), 0.5 * wall.thickness_m);
+  f.z_min_m = 0.0;
+  f.z_max_m = 2.5;
+  f.name = name;
+  return f;
+}
+
+Footprint object_footprint(const WorldObjectSpec& object, const std::string& name) {
+  Footprint f;
+  f.centre_m = Eigen::Vector2d(object.pose.x_m, object.pose.y_m);
+  f.yaw_rad = object.pose.yaw_rad;
+  if (object.shape == WorldObjectSpec::Shape::cylinder) {
+    f.shape = Footprint::Shape::circle;
+    f.half_m = Eigen::Vector2d::Constant(0.5 * object.size_x_m);
+  } else {
+    f.shape = Footprint::Shape::rect;
+    f.half_m = Eigen::Vector2d(0.5 * object.size_x_m, 0.5 * object.size_y_m);
+  }
+  f.z_min_m = 0.0;
+  f.z_max_m = object.height_m;
+  f.name = name;
+  return f;
+}
+
+void add_object(SceneBuilder& builder, const WorldObjectSpec& object, int object_id) {
+  if (object.shape == WorldObjectSpec::Shape::cylinder) {
+    builder.add_mesh(prism_mesh(0.5 * object.size_x_m, object.height_m, 16),
+                     on_floor(object.pose, 0.0), object_id);
+  } else {
+    builder.add_box(
+        on_floor(object.pose, 0.5 * object.height_m),
+        Eigen::Vector3d(0.5 * object.size_x_m, 0.5 * object.size_y_m, 0.5 * object.height_m),
+        object_id);
+  }
+}
+
+std::vector<WorldObjectSpec> place_clutter(const mrpt::maps::COccupancyGridMap2D& walls,
+                                           const ClutterSpec& spec,
+                                           const std::vector<Eigen::Vector2d>& keep_clear,
+                                           double robot_radius_m, std::mt19937_64& rng) {
+  std::vector<WorldObjectSpec> out;
+  if (spec.per_m <= 0.0) return out;
+  const int nx = static_cast<int>(walls.getSizeX()), ny = static_cast<int>(walls.getSizeY());
+  const double res = walls.getResolution();
+  auto is_free = [&](int i, int j) { return in_grid(walls, i, j) && walls.getCell(i, j) > kFree; };
+  auto free_at = [&](const Eigen::Vector2d& p) {
+    return is_free(walls.x2idx(p.x()), walls.y2idx(p.y()));
+  };
+  // A wall face is a free cell beside an occupied one; each is about one cell of face, so each
+  // takes an object with probability per_m * cell size.
+  const double p_cell = std::min(1.0, spec.per_m * res);
+  for (int j = 1; j + 1 < ny; ++j) {
+    for (int i = 1; i + 1 < nx; ++i) {
+      if (!is_free(i, j)) continue;
+      Eigen::Vector2d normal = Eigen::Vector2d::Zero();  // away from the wall
+      for (int dj = -1; dj <= 1; ++dj) {
+        for (int di = -1; di <= 1; ++di) {
+          if ((di || dj) && walls.getCell(i + di, j + dj) < kOccupied)
+            normal -= Eigen::Vector2d(di, dj);
+        }
+      }
+      if (normal.squaredNorm() < 0.5) continue;
+      if (uniform(rng, 0.0, 1.0) >= p_cell) continue;
+      normal.normalize();
+      WorldObjectSpec o;
+      o.shape = uniform(rng, 0.0, 1.0) < 0.5 ? WorldObjectSpec::Shape::box
+                                             : WorldObjectSpec::Shape::cylinder;
+      o.size_x_m = uniform(rng, spec.min_size_m, spec.max_size_m);
+      o.size_y_m = o.shape == WorldObjectSpec::Shape::box
+                       ? uniform(rng, spec.min_size_m, spec.max_size_m)
+                       : o.size_x_m;
+      o.height_m = uniform(rng, spec.min_height_m, spec.max_height_m);
+      const double depth_m = o.size_x_m;  // a box faces the room with its x axis
+      const Eigen::Vector2d face(walls.idx2x(i), walls.idx2y(j));
+      const Eigen::Vector2d centre = face + normal * (0.5 * depth_m + 0.02);
+      o.pose = Pose2D{centre.x(), centre.y(), std::atan2(normal.y(), normal.x())};
+      // Kept clear of the tour's places.
+      const double reach = 0.5 * std::hypot(o.size_x_m, o.size_y_m);
+      bool ok = true;
+      for (const auto& k : keep_clear) ok &= (k - centre).norm() > spec.keep_clear_m + reach;
+      for (const auto& c : out) {
+        ok &= (Eigen::Vector2d(c.pose.x_m, c.pose.y_m) - centre).norm() >
+              reach + 0.5 * std::hypot(c.size_x_m, c.size_y_m) + 0.1;
+      }
+      if (!ok) continue;
+      // Its footprint on free floor, and the corridor it stands in still wide enough: across
+      // from its front to the next wall there is room for the robot and a margin each side.
+      const Footprint f = object_footprint(o, "");
+      for (double dy = -reach; dy <= reach && ok; dy += 0.5 * res) {
+        for (double dx = -reach; dx <= reach && ok; dx += 0.5 * res) {
+          const Eigen::Vector2d p = centre + Eigen::Vector2d(dx, dy);
+          if (f.distance_m(p) <= 0.0 && !free_at(p)) ok = false;
+        }
+      }
+      const double needed_m = 2.0 * robot_radius_m + 0.6;
+      for (double s = 0.0; s <= needed_m && ok; s += 0.5 * res) {
+        if (!free_at(centre + normal * (0.5 * depth_m + s))) ok = false;
+      }
+      if (ok) out.push_back(o);
+    }
+  }
+  return out;
+}
+
+std::vector<WorldObjectSpec> target_supports(const TriangleMesh& mesh,
+                                             const Eigen::Isometry3d& T_map_model) {
+  std::vector<WorldObjectSpec> out;
+  if (mesh.vertices.empty()) return out;
+  // Extents in the target's own horizontal axes (its yaw in the map).
+  const Eigen::Vector3d x_map = T_map_model.linear().col(0);
+  const double yaw = std::atan2(x_map.y(), x_map.x());
+  const Eigen::Rotation2Dd R_inv(-yaw);
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(kInf), hi = -lo;
+  double z_min = kInf;
+  for (const auto& v : mesh.vertices) {
+    const Eigen::Vector3d p = T_map_model * v.cast<double>();
+    const Eigen::Vector2d q = R_inv * p.head<2>();
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+    z_min = std::min(z_min, p.z());
+  }
+  if (z_min < 0.05) return out;
+  const Eigen::Rotation2Dd R(yaw);
+  const Eigen::Vector2d size = hi - lo;
+  const Eigen::Vector2d mid = R * (0.5 * (lo + hi));
+  const double height_m = z_min - 0.002;  // just under it: the support is not the target
+  if (std::min(size.x(), size.y()) >= 0.05) {
+    WorldObjectSpec plinth;
+    plinth.shape = WorldObjectSpec::Shape::box;
+    plinth.pose = Pose2D{mid.x(), mid.y(), yaw};
+    plinth.size_x_m = 0.8 * size.x();
+    plinth.size_y_m = 0.8 * size.y();
+    plinth.height_m = height_m;
+    out.push_back(plinth);
+    return out;
+  }
+  // A flat target stands on two posts near its ends, along its long side.
+  const int long_axis = size.x() >= size.y() ? 0 : 1;
+  for (double side : {-0.35, 0.35}) {
+    Eigen::Vector2d offset = Eigen::Vector2d::Zero();
+    offset[long_axis] = side * size[long_axis];
+    const Eigen::Vector2d at = mid + R * offset;
+    WorldObjectSpec post;
+    post.shape = WorldObjectSpec::Shape::cylinder;
+    post.pose = Pose2D{at.x(), at.y(), 0.0};
+    post.size_x_m = post.size_y_m = 0.04;
+    post.height_m = height_m;
+    out.push_back(post);
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+Crowd::Crowd(const CrowdSpec& spec, const mrpt::maps::COccupancyGridMap2D* walls,
+             const std::vector<Footprint>& objects, const std::vector<Eigen::Vector2d>& homes,
+             int first_object_id, std::uint64_t seed)
+    : spec_(spec), homes_(homes), first_object_id_(first_object_id), rng_(seed) {
+  if (walls != nullptr) {
+    cols_ = static_cast<int>(walls->getSizeX());
+    rows_ = static_cast<int>(walls->getSizeY());
+    x_min_m_ = walls->getXMin();
+    y_min_m_ = walls->getYMin();
+    resolution_m_ = walls->getResolution();
+    cv::Mat open(rows_, cols_, CV_8UC1);
+    for (int j = 0; j < rows_; ++j) {
+      for (int i = 0; i < cols_; ++i) {
+        open.at<std::uint8_t>(j, i) = walls->getCell(i, j) > kFree ? 255 : 0;
+      }
+    }
+    for (const Footprint& f : objects) {
+      const double reach = f.half_m.norm() + resolution_m_;
+      for (int j = std::max(0, walls->y2idx(f.centre_m.y() - reach));
+           j <= std::min(rows_ - 1, walls->y2idx(f.centre_m.y() + reach)); ++j) {
+        for (int i = std::max(0, walls->x2idx(f.centre_m.x() - reach));
+             i <= std::min(cols_ - 1, walls->x2idx(f.centre_m.x() + reach)); ++i) {
+          const Eigen::Vector2d c(walls->idx2x(i), walls->idx2y(j));
+          if (f.distance_m(c) <= 0.5 * resolution_m_) open.at<std::uint8_t>(j, i) = 0;
+        }
+      }
+    }
+    cv::Mat clearance_cells;
+    cv::distanceTransform(open, clearance_cells, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+    free_.assign(static_cast<std::size_t>(rows_) * cols_, 0);
+    const float needed = static_cast<float>((spec.radius_m + 0.05) / resolution_m_);
+    for (int j = 0; j < rows_; ++j) {
+      for (int i = 0; i < cols_; ++i) {
+        free_[static_cast<std::size_t>(j) * cols_ + i] = clearance_cells.at<float>(j, i) > needed;
+      }
+    }
+  }
+  auto add = [&](const PersonSpec& s, bool random_start) {
+    Person p;
+    p.route_m = s.route_m;
+    p.loop = s.loop;
+    p.speed_mps = s.speed_mps;
+    p.pause_each_s = s.pause_s;
+    p.start_s = s.start_s;
+    p.object_id = first_object_id_ + static_cast<int>(people_.size());
+    if (!p.route_m.empty()) {
+      p.at_m = p.route_m.front();
+      p.next = 1;
+      p.goal_m = p.route_m[1];
+    } else {
+      if (s.start_m) {
+        p.at_m = *s.start_m;
+      } else if (random_start && !homes_.empty()) {
+        // A free spot 1-5 m from a seeded home, in sight of it.
+        const Eigen::Vector2d home = homes_[rng_() % homes_.size()];
+        p.at_m = home;
+        for (int tries = 0; tries < 64; ++tries) {
+          const double a = uniform(rng_, 0.0, 2.0 * kPi), r = uniform(rng_, 1.0, 5.0);
+          const Eigen::Vector2d q = home + r * Eigen::Vector2d(std::cos(a), std::sin(a));
+          if (walkable(q) && line_walkable(home, q)) {
+            p.at_m = q;
+            break;
+          }
+        }
+      }
+      p.home_m = p.at_m;
+      p.goal_m = p.at_m;
+    }
+    people_.push_back(std::move(p));
+  };
+  for (const PersonSpec& s : spec.list) add(s, false);
+  for (int k = 0; k < spec.walkers; ++k) {
+    PersonSpec s;
+    s.speed_mps = uniform(rng_, spec.min_speed_mps, spec.max_speed_mps);
+    add(s, true);
+  }
+  update_shapes();
+}
+
+void Crowd::add_scripted(const std::vector<Eigen::Vector2d>& route,
+                         const std::vector<double>& pause_s, double speed_mps, double start_s) {
+  if (route.size() < 2) return;
+  Person p;
+  p.route_m = route;
+  p.pause_s = pause_s;
+  p.scripted = true;
+  p.loop = false;
+  p.speed_mps = speed_mps;
+  p.start_s = start_s;
+  p.at_m = route.front();
+  p.next = 1;
+  p.goal_m = route[1];
+  p.object_id = first_object_id_ + static_cast<int>(people_.size());
+  people_.push_back(std::move(p));
+}
+
+bool Crowd::walkable(const Eigen::Vector2d& p) const {
+  if (free_.empty()) return true;
+  const int i = static_cast<int>(std::floor((p.x() - x_min_m_) / resolution_m_));
+  const int j = static_cast<int>(std::floor((p.y() - y_min_m_) / resolution_m_));
+  if (i < 0 || j < 0 || i >= cols_ || j >= rows_) return false;
+  return free_[static_cast<std::size_t>(j) * cols_ + i] != 0;
+}
+
+bool Crowd::line_walkable(const Eigen::Vector2d& a, const Eigen::Vector2d& b) const {
+  const double length = (b - a).norm();
+  const int steps = std::max(1, static_cast<int>(std::ceil(length / (0.5 * resolution_m_))));
+  for (int k = 0; k <= steps; ++k) {
+    if (!walkable(a + (b - a) * (static_cast<double>(k) / steps))) return false;
+  }
+  return true;
+}
+
+void Crowd::choose_goal(Person& p) {
+  // Somewhere in sight within 4 m of home: people mill about the places the tour goes to.
+  for (int tries = 0; tries < 32; ++tries) {
+    const double a = uniform(rng_, 0.0, 2.0 * kPi), r = uniform(rng_, 1.0, 6.0);
+    const Eigen::Vector2d q = p.at_m + r * Eigen::Vector2d(std::cos(a), std::sin(a));
+    if ((q - p.home_m).norm() > 4.0 || !walkable(q) || !line_walkable(p.at_m, q)) continue;
+    p.goal_m = q;
+    return;
+  }
+  p.goal_m = p.home_m;  // back home when nothing else is in sight
+  if (!line_walkable(p.at_m, p.home_m)) p.goal_m = p.at_m;
+}
+
+void Crowd::step(double t_s, double dt_s, const Eigen::Vector2d& robot_m, double keep_off_m) {
+  moved_ = false;
+  for (Person& p : people_) {
+    if (p.gone) continue;
+    if (t_s + 1e-9 < p.start_s) continue;
+    if (!p.present) {
+      p.present = true;
+      moved_ = true;
+    }
+    if (t_s < p.paused_until_s) continue;
+    const Eigen::Vector2d to_goal = p.goal_m - p.at_m;
+    const double distance = to_goal.norm();
+    if (distance < 1e-6) {
+      // At the goal: the next waypoint, a pause, or a new goal.
+      if (!p.route_m.empty()) {
+        const double pause =
+            p.scripted ? (p.next < p.pause_s.size() ? p.pause_s[p.next] : 0.0) : p.pause_each_s;
+        if (p.next + 1 < p.route_m.size()) {
+          ++p.next;
+        } else if (p.loop) {
+          p.next = 0;
+        } else {
+          if (p.scripted) {
+            p.gone = true;
+            p.present = false;
+            moved_ = true;
+          }
+          continue;
+        }
+        p.goal_m = p.route_m[p.next];
+        p.paused_until_s = t_s + pause;
+      } else {
+        p.paused_until_s = t_s + uniform(rng_, 0.0, spec_.max_pause_s);
+        choose_goal(p);
+      }
+      continue;
+    }
+    const double step = std::min(distance, p.speed_mps * dt_s);
+    const Eigen::Vector2d next = p.at_m + to_goal * (step / distance);
+    // People give the robot room: nobody steps nearer to it than keep_off_m.
+    const double limit = keep_off_m + spec_.radius_m;
+    if ((next - robot_m).norm() < limit && (next - robot_m).norm() < (p.at_m - robot_m).norm()) {
+      p.blocked_s += dt_s;
+      if (p.blocked_s > 2.0) {
+        p.blocked_s = 0.0;
+        if (p.route_m.empty()) {
+          choose_goal(p);
+        } else if (!p.scripted) {
+          // Turn back to the previous waypoint; the route goes on from there.
+          p.next = (p.next + p.route_m.size() - 1) % p.route_m.size();
+          p.goal_m = p.route_m[p.next];
+        }
+      }
+      continue;
+    }
+    p.blocked_s = 0.0;
+    p.at_m = next;
+    moved_ = true;
+  }
+  update_shapes();
+}
+
+std::vector<std::pair<int, Eigen::Vector2d>> Crowd::positions() const {
+  std::vector<std::pair<int, Eigen::Vector2d>> out;
+  for (std::size_t i = 0; i < people_.size(); ++i) {
+    if (people_[i].present) out.emplace_back(static_cast<int>(i), people_[i].at_m);
+  }
+  return out;
+}
+
+void Crowd::update_shapes() {
+  shapes_.clear();
+  const float head_r = 0.11f;
+  for (const Person& p : people_) {
+    if (!p.present) continue;
+    PersonShape s;
+    s.centre_m = p.at_m.cast<float>();
+    s.radius_m = static_cast<float>(spec_.radius_m);
+    s.head_radius_m = head_r;
+    s.head_z_m = static_cast<float>(spec_.height_m) - head_r;
+    s.body_top_m = s.head_z_m - head_r;
+    s.object_id = p.object_id;
+    shapes_.push_back(s);
+  }
+}
+
+}  // namespace projtour::sim
