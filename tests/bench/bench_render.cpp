@@ -60,20 +60,48 @@ void BM_RenderIdeal(benchmark::State& state) {
 }
 BENCHMARK(BM_RenderIdeal)->Unit(benchmark::kMillisecond);
 
+// range(0) = 1: with the structured-light artefacts (shadows, flying pixels, correlated noise).
+sim::KinectNoiseParams noise_params(const benchmark::State& state) {
+  sim::KinectNoiseParams params;
+  params.shadows = params.flying_pixels = params.correlated_noise = state.range(0) != 0;
+  return params;
+}
+
 void BM_RenderWithKinectNoise(benchmark::State& state) {
   const BenchScene& s = bench_scene();
   const sim::DepthRenderer renderer(s.intrinsics);
+  const sim::KinectNoiseParams params = noise_params(state);
   sim::IdealDepth ideal;
   std::mt19937_64 rng(1);
   const std::clock_t start = std::clock();
   for (auto _ : state) {
     renderer.render(s.scene, s.T_world_camera, ideal, 4.0);
-    DepthFrame frame = sim::apply_kinect_noise(ideal, s.intrinsics, {}, rng);
+    DepthFrame frame = sim::apply_kinect_noise(ideal, s.intrinsics, params, rng);
     benchmark::DoNotOptimize(frame.depth_mm.data());
   }
   report_cpu_ms_per_frame(state, start);
 }
-BENCHMARK(BM_RenderWithKinectNoise)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RenderWithKinectNoise)
+    ->ArgName("artefacts")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond);
+
+// The noise model alone, on one rendered frame: what the artefacts add to every frame.
+void BM_KinectNoise(benchmark::State& state) {
+  const BenchScene& s = bench_scene();
+  sim::IdealDepth ideal;
+  sim::DepthRenderer(s.intrinsics).render(s.scene, s.T_world_camera, ideal, 4.0);
+  const sim::KinectNoiseParams params = noise_params(state);
+  std::mt19937_64 rng(1);
+  const std::clock_t start = std::clock();
+  for (auto _ : state) {
+    DepthFrame frame = sim::apply_kinect_noise(ideal, s.intrinsics, params, rng);
+    benchmark::DoNotOptimize(frame.depth_mm.data());
+  }
+  report_cpu_ms_per_frame(state, start);
+}
+BENCHMARK(BM_KinectNoise)->ArgName("artefacts")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
