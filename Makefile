@@ -7,6 +7,9 @@ JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 RUN_DIR ?= runs/demo_tour
 SEED ?= 1
+# WORLD=busy: the demo tour's building on a busy day (missions/demo_world_busy.yaml).
+WORLD ?=
+WORLD_FILE = missions/demo_world$(if $(WORLD),_$(WORLD),).yaml
 
 .PHONY: all deps configure build run test test-asan test-tsan bench format clean
 
@@ -24,7 +27,7 @@ build: configure
 	cmake --build $(BUILD_DIR) -j $(JOBS)
 
 run: build
-	$(BUILD_DIR)/projtour run missions/demo_tour.yaml --dry-run --world missions/demo_world.yaml --seed $(SEED) --out $(RUN_DIR)
+	$(BUILD_DIR)/projtour run missions/demo_tour.yaml --dry-run --world $(WORLD_FILE) --seed $(SEED) --out $(RUN_DIR)
 
 # The fast suite first, so its failures show within minutes; then the `slow` label (the minute
 # of fuzzing, the interruption test).

@@ -58,6 +58,7 @@ states:
           too_few_points: [capture, verify]       # else verify with the calibration believed so far
           poor_fit: [capture, verify]
           no_frame: [calibrate, verify]
+          blocked_beam: [wait, skip_target]       # someone in the structured light
           failed: skip_target
       verify:               # the colour camera: where the corners land, and the beam is clear
         behaviour: verify
@@ -71,6 +72,7 @@ states:
           occluded: [wait, skip_target]
           off_screen: [aim, skip_target]
           no_frame: [verify, skip_target]
+          blocked_beam: [wait, defer_target]      # someone in the beam: wait, then come back later
           failed: skip_target
       wait:                 # for the beam to clear
         behaviour: wait

@@ -119,7 +119,7 @@ void Calibrate::start(Context& ctx) {
     return;
   }
   capture_.start(
-      ctx, sequence_->size(), [this](int i) { return sequence_->frame(i, mask_); },
+      ctx, *view_, sequence_->size(), [this](int i) { return sequence_->frame(i, mask_); },
       robot.structured_light.hold_s, robot.structured_light.exposure_ms);
 }
 

@@ -43,8 +43,8 @@ const projtour_param_desc kCalibrateParams[] = {
     {"max_change_mm", "number", "60",
      "a fit moving the content further than this on the target is refused (poor_fit)"},
     {"max_change_deg", "number", "5", "... or turning the projector more than this"}};
-const char* const kCalibrateOutcomes[] = {"succeeded", "off_screen", "too_few_points", "poor_fit",
-                                          "no_frame"};
+const char* const kCalibrateOutcomes[] = {"succeeded", "off_screen", "too_few_points",
+                                          "poor_fit",  "no_frame",   "blocked_beam"};
 const projtour_key_desc kCalibrateKeys[] = {reads(keys::kAlign), reads(keys::kCapture),
                                             reads_if_present(keys::kCalibration),
                                             writes(keys::kCalibration), writes(keys::kCalibrate)};
@@ -78,8 +78,9 @@ const projtour_param_desc kVerifyParams[] = {
     {"gross_slide_tolerances", "number", "2",
      "a slide of this many tolerances is gross: any counted outline moves the Model Points, and "
      "the pose slides (misaligned) before anything else is judged"}};
-const char* const kVerifyOutcomes[] = {"verified", "out_of_tolerance", "misaligned", "uncertain",
-                                       "occluded", "not_seen",         "off_screen", "no_frame"};
+const char* const kVerifyOutcomes[] = {"verified",   "out_of_tolerance", "misaligned",
+                                       "uncertain",  "occluded",         "not_seen",
+                                       "off_screen", "no_frame",         "blocked_beam"};
 const projtour_key_desc kVerifyKeys[] = {reads(keys::kAlign), reads(keys::kCapture),
                                          reads_if_present(keys::kCalibration),
                                          writes(keys::kVerify), writes(keys::kAlign)};

@@ -1,11 +1,38 @@
 #include "lit_capture.hpp"
 
+#include <algorithm>
+#include <limits>
 #include <sstream>
 
 namespace projtour::closed_loop {
 
-void LitCapture::start(Context& ctx, int count, FrameSource source, double hold_s,
-                       double exposure_ms) {
+void LitCapture::start(Context& ctx, const TargetView& view, int count, FrameSource source,
+                       double hold_s, double exposure_ms) {
+  // The lit region: the model's bounding box in the projector (the patterns stay on it).
+  const PinholeModel& projector = ctx.robot().projector.intrinsics;
+  guard_ = light::BeamGuard();
+  if (view.model && ctx.drivers().depth_camera) {
+    const Eigen::Isometry3d T_projector_model = view.T_projector_camera * view.T_camera_model;
+    Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Vector2d hi = -lo;
+    for (const Eigen::Vector3f& p : view.model->points) {
+      const Eigen::Vector3d q = T_projector_model * p.cast<double>();
+      if (q.z() <= 0.0) continue;
+      const Eigen::Vector2d px(projector.fx * q.x() / q.z() + projector.cx,
+                               projector.fy * q.y() / q.z() + projector.cy);
+      lo = lo.cwiseMin(px);
+      hi = hi.cwiseMax(px);
+    }
+    if (lo.x() <= hi.x()) {
+      guard_.arm(view.T_projector_camera, projector,
+                 {lo, Eigen::Vector2d(hi.x(), lo.y()), hi, Eigen::Vector2d(lo.x(), hi.y())},
+                 *view.model, view.T_camera_model);
+    }
+  }
+  if (!guard_.armed()) {
+    ctx.log().warning(target_prefix(ctx) + "the beam is not guarded (" +
+                      (ctx.drivers().depth_camera ? "no model in view" : "no depth camera") + ")");
+  }
   source_ = std::move(source);
   count_ = count;
   hold_s_ = hold_s;
@@ -41,8 +68,26 @@ std::optional<Outcome> LitCapture::step(Context& ctx, double timeout_s,
       << frames_.size() + 1 << " of " << count_ << ")";
     return Outcome{"no_frame", s.str()};
   }
+  if (active_) {
+    if (auto blocked = guard_beam(ctx, showing)) return blocked;
+  }
   if (take(ctx)) finish(ctx);
   return std::nullopt;
+}
+
+std::optional<Outcome> LitCapture::guard_beam(Context& ctx, const std::string& showing) {
+  if (!guard_.armed()) return std::nullopt;
+  const auto frame = ctx.drivers().depth_camera->grab();
+  if (!frame) return std::nullopt;
+  const light::BeamIntrusion seen = guard_.check(*frame, ctx.robot().camera.depth_to_color_m);
+  if (!seen.blocked) return std::nullopt;
+  finish(ctx);
+  std::ostringstream s;
+  s.precision(2);
+  s << std::fixed << target_prefix(ctx) << "something in the beam (" << seen.points << " readings, "
+    << seen.nearest_m << " m from the projector) while showing " << showing << " (frame "
+    << frames_.size() + 1 << " of " << count_ << "): blanked";
+  return Outcome{"blocked_beam", s.str()};
 }
 
 bool LitCapture::take(Context& ctx) {

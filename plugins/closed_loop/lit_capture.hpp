@@ -1,13 +1,16 @@
 #pragma once
 // Shows projector frames one at a time and takes, for each, the first colour frame exposed after
 // it had been lit for `hold_s` (the camera's time stamps, not the tick, decide). Calibrate's
-// Gray-code sequence and verify's three frames both go through it.
+// Gray-code sequence and verify's three frames both go through it. While anything is lit, the
+// beam guard reads every depth frame: something in the beam ends the sequence dark, with
+// `blocked_beam` (a half-taken sequence is no use, and the person may stay a while).
 #include <functional>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "projtour/beam_guard.hpp"
 #include "projtour/behaviour.hpp"
 #include "projtour/colour_frame.hpp"
 #include "projtour/context.hpp"
@@ -20,12 +23,14 @@ class LitCapture {
   using FrameSource = std::function<cv::Mat(int)>;
 
   // Frames 0..count-1 from `source`; the colour camera's exposure is fixed at exposure_ms for
-  // the sequence (dark and lit frames are compared pixel by pixel).
-  void start(Context& ctx, int count, FrameSource source, double hold_s, double exposure_ms);
+  // the sequence (dark and lit frames are compared pixel by pixel). The beam guard watches what
+  // of `view`'s target the projector lights (the model's bounding box in the projector).
+  void start(Context& ctx, const TargetView& view, int count, FrameSource source, double hold_s,
+             double exposure_ms);
   // One tick of the sequence: the outcome that ends it early -- cancelled, or "no_frame" when
   // no usable colour frame came within timeout_s of state time after a show (`showing` names
-  // what was up) -- else nullopt; done() once every frame has its colour frame. Throws
-  // DriverError from the devices.
+  // what was up), "blocked_beam" when something stands in the beam -- else nullopt; done() once
+  // every frame has its colour frame. Throws DriverError from the devices.
   std::optional<Outcome> step(Context& ctx, double timeout_s, const std::string& showing);
   bool done() const { return static_cast<int>(frames_.size()) == count_ && !active_; }
   // A pause blanks the projector and forgets what was taken: the sequence starts again on
@@ -42,6 +47,7 @@ class LitCapture {
  private:
   bool take(Context& ctx);
   void show_next(Context& ctx);
+  std::optional<Outcome> guard_beam(Context& ctx, const std::string& showing);
 
   FrameSource source_;
   int count_ = 0;
@@ -53,6 +59,7 @@ class LitCapture {
   double first_shown_s_ = 0.0;
   double last_frame_s_ = 0.0;
   bool active_ = false;
+  light::BeamGuard guard_;
 };
 
 // A step that lights the target and records what the colour camera sees (calibrate, verify):

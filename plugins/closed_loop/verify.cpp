@@ -161,7 +161,7 @@ void Verify::start(Context& ctx) {
   warper_->set_target(content, view_->quad);
   frames_.push_back(warper_->warp(cv::Mat(content, CV_8UC3, cv::Scalar::all(255))));
   capture_.start(
-      ctx, static_cast<int>(frames_.size()), [this](int i) { return frames_[i]; },
+      ctx, *view_, static_cast<int>(frames_.size()), [this](int i) { return frames_[i]; },
       robot.structured_light.hold_s, robot.structured_light.exposure_ms);
 }
 

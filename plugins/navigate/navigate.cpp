@@ -30,6 +30,9 @@ constexpr double kProgressM = 0.05;
 constexpr double kReplanPeriodS = 1.0;
 // Re-approach stand-offs are tried this far apart.
 constexpr double kReapproachStepM = 0.05;
+// What the laser sees that the map lacks (furniture, people) is kept this much farther off
+// than the map's walls: the robot's radius plus this, with the planner's own margin on top.
+constexpr double kUnmappedClearanceM = 0.15;
 
 double clamp(double v, double limit) {
   return std::max(-limit, std::min(limit, v));
@@ -178,7 +181,7 @@ std::vector<Eigen::Vector2d> Navigate::obstacles_on_path(Context& ctx, const Pos
   if (!scan || path_.points_m.empty()) return hits;
   const Eigen::Isometry3d T_map_laser = isometry_from_pose2d(pose) * scan->T_base_laser;
   const InflatedGrid& grid = map_planner_->grid();
-  const double clearance_m = grid.robot_radius_m() + 0.05;
+  const double clearance_m = grid.robot_radius_m() + kUnmappedClearanceM;
   const Eigen::Vector2d robot(pose.x_m, pose.y_m);
   for (std::size_t i = 0; i < scan->ranges_m.size(); ++i) {
     if (i < scan->valid.size() && !scan->valid[i]) continue;
@@ -277,7 +280,19 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
     if (!obstacles.empty()) {
       command(ctx, 0, 0);
       if (now_s - last_replan_s_ >= kReplanPeriodS) {
-        planner_->grid().add_obstacles(obstacles);
+        // Each point grown into a disc of kUnmappedClearanceM: the new path keeps the robot's
+        // radius plus that from it.
+        std::vector<Eigen::Vector2d> grown;
+        const double step_m = 0.5 * planner_->grid().resolution_m();
+        for (const Eigen::Vector2d& p : obstacles) {
+          for (double dy = -kUnmappedClearanceM; dy <= kUnmappedClearanceM + 1e-9; dy += step_m) {
+            for (double dx = -kUnmappedClearanceM; dx <= kUnmappedClearanceM + 1e-9; dx += step_m) {
+              if (std::hypot(dx, dy) <= kUnmappedClearanceM)
+                grown.push_back(p + Eigen::Vector2d(dx, dy));
+            }
+          }
+        }
+        planner_->grid().add_obstacles(grown);
         if (!replan(ctx, pose)) {
           // Perhaps it moves away: forget what was seen and try again next period.
           planner_ = std::make_unique<PathPlanner>(*map_planner_);

@@ -36,7 +36,7 @@ using project::TrackSettings;
 light::BeamGuardSettings read_guard_settings(const Params& params) {
   light::BeamGuardSettings s;
   s.margin_m = params.number("beam_margin_m");
-  s.guard_px = params.number("beam_guard_px");
+  s.guard_m = params.number("beam_guard_m");
   s.min_points = static_cast<int>(params.number("beam_min_points"));
   return s;
 }
@@ -429,7 +429,7 @@ void check_params(const Params& params) {
   if (params.number("planarity_warn_mm") < 0 || params.number("min_area_px2") < 0) {
     throw std::invalid_argument("planarity_warn_mm and min_area_px2 must be >= 0");
   }
-  for (const char* key : {"beam_margin_m", "beam_guard_px", "beam_clear_s"}) {
+  for (const char* key : {"beam_margin_m", "beam_guard_m", "beam_clear_s"}) {
     if (!(params.number(key) >= 0)) throw std::invalid_argument(std::string(key) + " must be >= 0");
   }
   if (!(params.number("beam_min_points") >= 1) || !(params.number("beam_max_blocked_s") > 0)) {
@@ -456,8 +456,8 @@ const projtour_param_desc kParams[] = {
      "blank the projector while anything stands in the beam nearer than the target"},
     {"beam_margin_m", "number", "0.10",
      "beam guard: nearer than the target's nearest lit point by this counts"},
-    {"beam_guard_px", "number", "40",
-     "beam guard: the lit region grown by this on every side (projector pixels)"},
+    {"beam_guard_m", "number", "0.15",
+     "beam guard: the lit region grown by this on every side, at each reading's depth"},
     {"beam_min_points", "number", "30",
      "beam guard: depth readings (every 2nd pixel each way) it takes to blank"},
     {"beam_clear_s", "number", "1.0", "beam guard: shown again once clear this long"},

@@ -175,7 +175,7 @@ const char* const kRelocalize[] = {"succeeded", "lost"};
 const char* const kAim[] = {"succeeded", "out_of_reach", "reapproach"};
 const char* const kCapture[] = {"succeeded", "no_frame"};
 const char* const kAlign[] = {"succeeded", "poor_fit", "no_target"};
-const char* const kProject[] = {"succeeded", "off_screen", "blocked_beam"};
+const char* const kProject[] = {"succeeded", "off_screen"};
 const char* const kNext[] = {"succeeded"};
 const projtour_param_desc kNullDeviceParams[] = {
     {"log_safe_stops", "boolean", "true", "append each safe stop to run_dir/test_drivers.log"}};

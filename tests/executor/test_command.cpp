@@ -186,6 +186,7 @@ TEST_F(Command, AStateReadingAKeyNobodyWritesIsRefusedAtItsLine) {
   };
   swap("behaviour: scripted_project", "behaviour: project");
   swap("params: {ticks: 3, outcomes: \"succeeded, off_screen, succeeded\"}", "params: {}");
+  swap("off_screen: skip_target,", "off_screen: skip_target, blocked_beam: skip_target,");
   const fs::path mission = write_mission(machine);
   EXPECT_EQ(projtour("validate " + mission.string()), 2);
   EXPECT_NE(err().find(mission.string() +

@@ -150,12 +150,29 @@ TEST_F(ClosedLoop, RoughModelIsUncertainNeverProjectedUnvouched) {
 }
 
 // Regression: a thin pole 0.6 m in front of the sign caught 14 % of the content's light and the
-// visit was still reported projected. The colour camera sees the light land in front of the
-// target: occluded, a wait, a look again, then skipped with the reason.
+// visit was still reported projected. Now the beam guard sees it in the beam as soon as the
+// structured light goes up: dark at once, a wait, a look again, then skipped with the reason
+// (left for later, but the sign is the tour's last target).
 TEST_F(ClosedLoop, PoleInFrontOfTheSignIsNeverReportedProjected) {
   const DryRunResult r = dry_run("w_pole.yaml", "run");
   EXPECT_EQ(r.exit_code, 3) << r.err;
   EXPECT_EQ(report_target(r.report, "rabbit").at("outcome").get<std::string>(), "projected");
+  const Json& t = report_target(r.report, "open-day-sign");
+  EXPECT_EQ(t.at("outcome").get<std::string>(), "skipped") << t.dump();
+  EXPECT_TRUE(std::regex_search(t.at("reason").get<std::string>(),
+                                std::regex("^blocked_beam: .*something in the beam")))
+      << t.dump();
+  EXPECT_EQ(join(outcome_chain(r.events, "open-day-sign")),
+            "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
+            "calibrate:blocked_beam > wait:succeeded > verify:blocked_beam > wait:succeeded > "
+            "verify:blocked_beam");
+}
+
+// A pole just before the sign's face, within the beam guard's margin: the colour camera sees
+// the light land in front of the target: occluded, a wait, a look again, then skipped.
+TEST_F(ClosedLoop, PoleRightBeforeTheSignIsOccluded) {
+  const DryRunResult r = dry_run("w_pole_close.yaml", "run");
+  EXPECT_EQ(r.exit_code, 3) << r.err;
   const Json& t = report_target(r.report, "open-day-sign");
   EXPECT_EQ(t.at("outcome").get<std::string>(), "skipped") << t.dump();
   EXPECT_TRUE(std::regex_search(t.at("reason").get<std::string>(),

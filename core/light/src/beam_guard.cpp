@@ -41,7 +41,7 @@ void BeamGuard::arm(const Eigen::Isometry3d& T_projector_camera, const PinholeMo
     const Eigen::Vector3d q = T_projector_model * p.cast<double>();
     if (q.z() <= 0.0) continue;
     nearest_any = std::min(nearest_any, q.z());
-    if (in_region({fx_ * q.x() / q.z() + cx_, fy_ * q.y() / q.z() + cy_})) {
+    if (in_region({fx_ * q.x() / q.z() + cx_, fy_ * q.y() / q.z() + cy_}, q.z())) {
       nearest_in = std::min(nearest_in, q.z());
     }
   }
@@ -50,9 +50,10 @@ void BeamGuard::arm(const Eigen::Isometry3d& T_projector_camera, const PinholeMo
   armed_ = limit_m_ > settings_.min_range_m;
 }
 
-bool BeamGuard::in_region(const Eigen::Vector2d& px) const {
+bool BeamGuard::in_region(const Eigen::Vector2d& px, double z_m) const {
+  const double guard_px = fx_ * settings_.guard_m / z_m;
   for (int i = 0; i < 4; ++i) {
-    if (normal_[i].dot(px) < offset_[i] - settings_.guard_px) return false;
+    if (normal_[i].dot(px) < offset_[i] - guard_px) return false;
   }
   return true;
 }
@@ -75,7 +76,7 @@ BeamIntrusion BeamGuard::check(const DepthFrame& frame,
       const Eigen::Vector3d ray((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
       const Eigen::Vector3d q = R * (ray * z) + t;
       if (q.z() < settings_.min_range_m || q.z() >= limit_m_) continue;
-      if (!in_region({fx_ * q.x() / q.z() + cx_, fy_ * q.y() / q.z() + cy_})) continue;
+      if (!in_region({fx_ * q.x() / q.z() + cx_, fy_ * q.y() / q.z() + cy_}, q.z())) continue;
       ++out.points;
       out.nearest_m = std::min(out.nearest_m, q.z());
     }

@@ -527,7 +527,8 @@ std::vector<std::pair<int, Eigen::Vector2d>> Crowd::positions() const {
 
 void Crowd::update_shapes() {
   shapes_.clear();
-  const float head_r = 0.11f;
+  // Within the body's circle seen from above (the scene's ray test relies on it).
+  const float head_r = std::min(0.11f, static_cast<float>(spec_.radius_m));
   for (const Person& p : people_) {
     if (!p.present) continue;
     PersonShape s;

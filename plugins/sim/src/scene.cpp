@@ -389,7 +389,10 @@ void Scene::intersect_people(const Eigen::Vector3f& o, const Eigen::Vector3f& d,
       const float b = ox * d.x() + oy * d.y();
       const float c = ox * ox + oy * oy - r2;
       const float disc = b * b - a * c;
-      if (disc >= 0.0f) {
+      // The head lies within the body's circle seen from above: a ray that misses the circle,
+      // or starts outside it going away, misses the person.
+      if (disc < 0.0f || (c > 0.0f && b > 0.0f)) continue;
+      {
         const float t = (-b - std::sqrt(disc)) / a;  // the near side; from inside, none
         const float z = o.z() + t * d.z();
         if (t > 1e-6f && t < hit.t && z >= 0.0f && z <= p.body_top_m) {

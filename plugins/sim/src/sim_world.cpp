@@ -215,6 +215,14 @@ struct SimWorld::Impl {
   SceneBuilder fixed_parts;  // floor, walls and obstacles: all the scene but the targets
   Scene scene;
   std::uint64_t scene_version = 0;  // counts rebuilds: the colour camera keeps geometry per scene
+  // What the cameras' caches are keyed by: the scene's rebuilds and the people they could see
+  // (people walking elsewhere leave a camera's image as it was).
+  struct ViewKey {
+    std::uint64_t counter = 0;
+    std::uint64_t scene_version = ~0ull;
+    std::vector<PersonShape> seen;
+  };
+  ViewKey depth_view, colour_view;
   std::unique_ptr<DepthRenderer> depth_renderer;
   KinectNoiseParams kinect;
   std::unique_ptr<HeadKinematics> head_true;
@@ -528,6 +536,12 @@ struct SimWorld::Impl {
     auto lit_at = [&](const Eigen::Vector3d& p_map, int object_id) {
       const Eigen::Vector3d p = T_projector_map * p_map;
       if (p.z() <= 0.0) return false;
+      // Far off the axis the lens polynomial folds rays back into the image: only rays the
+      // ideal pinhole puts near the image go through the distortion.
+      const double u = k.fx * p.x() / p.z() + k.cx, v = k.fy * p.y() / p.z() + k.cy;
+      if (u < -0.1 * k.width || u > 1.1 * k.width || v < -0.1 * k.height || v > 1.1 * k.height) {
+        return false;
+      }
       const auto px = k.project(p);
       if (!px || !k.in_image(*px)) return false;
       const cv::Vec3b c = shown.at<cv::Vec3b>(static_cast<int>(px->y()), static_cast<int>(px->x()));
@@ -640,6 +654,34 @@ struct SimWorld::Impl {
     ++scene_version;
   }
 
+  // A version for a camera at T_map_camera looking along its optical z: it changes with the
+  // scene and with the people who may be in its view (coarsely: within 6 m and 80 deg of its
+  // axis, which holds every camera here, whose half field of view is under 35 deg).
+  std::uint64_t view_version(ViewKey& key, const Eigen::Isometry3d& T_map_camera) const {
+    std::vector<PersonShape> seen;
+    if (crowd) {
+      const Eigen::Isometry3d T_camera_map = T_map_camera.inverse();
+      for (const PersonShape& p : crowd->shapes()) {
+        const Eigen::Vector3d c =
+            T_camera_map * Eigen::Vector3d(p.centre_m.x(), p.centre_m.y(), 0.85);
+        const double r = c.norm();
+        if (r < 6.0 + p.radius_m && (r < 1.2 || c.z() > r * std::cos(deg_to_rad(80.0)))) {
+          seen.push_back(p);
+        }
+      }
+    }
+    auto same = [](const PersonShape& a, const PersonShape& b) {
+      return a.object_id == b.object_id && a.centre_m == b.centre_m;
+    };
+    if (key.scene_version != scene_version || seen.size() != key.seen.size() ||
+        !std::equal(seen.begin(), seen.end(), key.seen.begin(), same)) {
+      ++key.counter;
+      key.scene_version = scene_version;
+      key.seen = std::move(seen);
+    }
+    return key.counter;
+  }
+
   ColourRenderer& colour() const {
     if (!colour_renderer) {
       colour_renderer = std::make_unique<ColourRenderer>(mission->robot.camera.colour.intrinsics,
@@ -678,8 +720,8 @@ struct SimWorld::Impl {
         shown ? t.T_map_projector_shown : T_map_base() * head_true->T_base_projector(q_true);
     ColourRenderer& renderer = colour();
     cv::Mat radiance;
-    renderer.render(scene, scene_version, T_map_camera, T_map_projector, shown ? &frame : nullptr,
-                    radiance);
+    renderer.render(scene, view_version(const_cast<Impl*>(this)->colour_view, T_map_camera),
+                    T_map_camera, T_map_projector, shown ? &frame : nullptr, radiance);
     const double max_ms = max_colour_exposure_ms();
     const double fixed_ms = mission->robot.structured_light.exposure_ms;
     const double exposure_ms = fixed_ms > 0.0 ? std::min(fixed_ms, max_ms)
@@ -1017,6 +1059,14 @@ SimWorld::SimWorld(const RunContext& run) : impl_(std::make_unique<Impl>()) {
   w.rebuild_scene();
   w.depth_renderer = std::make_unique<DepthRenderer>(robot.camera.intrinsics);
   w.kinect.axial_noise = w.world.depth_noise;
+  if (w.world.depth_artefacts) {
+    w.kinect.shadows = true;
+    w.kinect.flying_pixels = true;
+    w.kinect.correlated_noise = w.world.depth_noise;
+    // The Kinect's 9 px matching window is at 640 px across.
+    w.kinect.correlation_window_px =
+        std::max(1, static_cast<int>(std::lround(9.0 * robot.camera.intrinsics.width / 640.0)));
+  }
   w.kinect.min_depth_m = robot.camera.min_range_m;
   w.kinect.max_depth_m = robot.camera.max_range_m;
 
@@ -1064,9 +1114,7 @@ void SimWorld::advance(double t_s) {
   if (w.crowd) {
     w.people_faults_if_due();
     if (w.crowd->moved()) {
-      // The colour camera keeps its geometry per scene version: people who move change it.
       w.scene.set_people(w.crowd->shapes());
-      ++w.scene_version;
     }
     w.referee_light(dt_total);
   }
@@ -1199,10 +1247,11 @@ std::optional<DepthFrame> SimWorld::grab() {
     // A still camera in a still scene sees the same ideal image: only the noise is new (the
     // beam guard reads every frame of a dwell).
     const Eigen::Isometry3d T_map_depth = w.T_map_depth();
-    if (!w.ideal_key || w.ideal_key->first != w.scene_version ||
+    const std::uint64_t version = w.view_version(w.depth_view, T_map_depth);
+    if (!w.ideal_key || w.ideal_key->first != version ||
         !w.ideal_key->second.isApprox(T_map_depth, 0.0)) {
       w.depth_renderer->render(w.scene, T_map_depth, w.ideal, w.kinect.max_depth_m + 0.2);
-      w.ideal_key.emplace(w.scene_version, T_map_depth);
+      w.ideal_key.emplace(version, T_map_depth);
     }
     frame = apply_kinect_noise(w.ideal, k, w.kinect, w.rng_depth);
   }
@@ -1249,8 +1298,8 @@ std::optional<ColourFrame> SimWorld::grab_colour() {
   }
   // set_light drops the kept geometry: only when the light really changes.
   if (light.room_lux != renderer.light().room_lux) renderer.set_light(light);
-  renderer.render(w.scene, w.scene_version, true_T_map_camera(), true_T_map_projector(),
-                  w.lit ? &w.shown : nullptr, w.colour_radiance);
+  renderer.render(w.scene, w.view_version(w.colour_view, true_T_map_camera()), true_T_map_camera(),
+                  true_T_map_projector(), w.lit ? &w.shown : nullptr, w.colour_radiance);
   const double max_ms = w.max_colour_exposure_ms();
   const double exposure_ms = w.colour_exposure_ms > 0.0
                                  ? std::min(w.colour_exposure_ms, max_ms)

@@ -3,7 +3,9 @@
 // photobiological hazard (IEC 62471-5), so while the projector is lit every depth frame is
 // searched for anything inside the lit part of the projector's frustum and nearer to the
 // projector than the target: a person walking in, a hand, a child. The lit region is grown by
-// a guard band, so someone walking in is seen before the light reaches them.
+// a guard band measured in metres at each reading's depth (a fixed band of pixels would be a
+// hair's breadth near the projector), so someone walking in is seen before the light reaches
+// them.
 #include <Eigen/Geometry>
 #include <array>
 #include <limits>
@@ -18,8 +20,9 @@ struct BeamGuardSettings {
   // Nearer than the target's nearest surface in the lit region by this counts as in the beam:
   // more than a depth camera's noise and a model's error, less than a hand in front of it.
   double margin_m = 0.10;
-  // The lit region grown by this many projector pixels on every side (about 6 cm at 1 m).
-  double guard_px = 40.0;
+  // The lit region grown by this on every side, at the depth of what is looked at: two ticks
+  // of someone walking in at 1.5 m/s.
+  double guard_m = 0.15;
   // Readings it takes to be something (~2 cm^2 at 1 m with stride 2): fewer are noise and
   // flying pixels at the target's own edges.
   int min_points = 30;
@@ -54,7 +57,8 @@ class BeamGuard {
   BeamIntrusion check(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m) const;
 
  private:
-  bool in_region(const Eigen::Vector2d& px) const;
+  // Within the lit region grown by guard_m at depth z_m (projector frame).
+  bool in_region(const Eigen::Vector2d& px, double z_m) const;
 
   BeamGuardSettings settings_;
   bool armed_ = false;
