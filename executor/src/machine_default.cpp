@@ -17,7 +17,7 @@ states:
         on:
           succeeded: aim
           unreachable: skip_target
-          blocked: skip_target
+          blocked: defer_target   # someone or something in the way: come back later
           timeout: skip_target
           lost: relocalize
           failed: skip_target

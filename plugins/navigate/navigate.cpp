@@ -33,6 +33,11 @@ constexpr double kReapproachStepM = 0.05;
 // What the laser sees that the map lacks (furniture, people) is kept this much farther off
 // than the map's walls: the robot's radius plus this, with the planner's own margin on top.
 constexpr double kUnmappedClearanceM = 0.15;
+// The speed it may drive at is what it could stop from before coming within its radius plus
+// kStopClearanceM of anything the laser sees ahead that the map lacks: pure pursuit cuts the
+// path's corners, and people step in beside it.
+constexpr double kStopClearanceM = 0.12;
+constexpr double kStopTimeS = 0.6;
 
 double clamp(double v, double limit) {
   return std::max(-limit, std::min(limit, v));
@@ -329,6 +334,7 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
     return std::nullopt;
   }
   double v = std::min(max_speed_mps_, std::max(kMinApproachSpeedMps, kApproachGain * goal_dist_m));
+  v = std::min(v, safe_speed_mps(ctx, pose));
   v *= std::cos(alpha);
   double w = 2.0 * v * std::sin(alpha) / distance_m;
   if (std::abs(w) > max_turn_rate_radps_) {
@@ -337,6 +343,33 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
   }
   command(ctx, v, w);
   return std::nullopt;
+}
+
+double Navigate::safe_speed_mps(Context& ctx, const Pose2D& pose) const {
+  const LaserScan* scan = ctx.blackboard().find(keys::kLaserScan);
+  if (!scan) return max_speed_mps_;
+  const Eigen::Isometry3d T_map_laser = isometry_from_pose2d(pose) * scan->T_base_laser;
+  const InflatedGrid& grid = map_planner_->grid();
+  const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
+  double speed_mps = max_speed_mps_;
+  const double keep_m = grid.robot_radius_m() + kStopClearanceM;
+  for (std::size_t i = 0; i < scan->ranges_m.size(); ++i) {
+    if (i < scan->valid.size() && !scan->valid[i]) continue;
+    const double r = scan->ranges_m[i];
+    if (!(r > 0.0) || r >= scan->max_range_m || r > 3.0) continue;
+    const double a = scan->angle_min_rad + i * scan->angle_increment_rad;
+    const Eigen::Vector2d p =
+        (T_map_laser * Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0)).head<2>();
+    if (!grid.is_free_space(p)) continue;  // the map's walls are planned around
+    const Eigen::Vector2d d = p - Eigen::Vector2d(pose.x_m, pose.y_m);
+    // Driving forward brings it nearer at v cos(bearing): what lies abeam does not limit the
+    // speed, what lies ahead does.
+    const double distance_m = d.norm();
+    const double closing = (c * d.x() + s * d.y()) / std::max(distance_m, 1e-9);
+    if (closing <= 0.05) continue;
+    speed_mps = std::min(speed_mps, std::max(0.0, distance_m - keep_m) / (kStopTimeS * closing));
+  }
+  return speed_mps;
 }
 
 void Navigate::stop(Context& ctx) {

@@ -25,6 +25,8 @@ class Navigate : public Behaviour {
   bool replan(Context& ctx, const Pose2D& from);
   // Laser points not on the map that lie on the path ahead, in the map frame.
   std::vector<Eigen::Vector2d> obstacles_on_path(Context& ctx, const Pose2D& pose) const;
+  // How fast it may drive and still stop short of what the laser sees ahead.
+  double safe_speed_mps(Context& ctx, const Pose2D& pose) const;
   // Path length left from the closest point ahead of `progress_index_`.
   double remaining_m(const Pose2D& pose);
   void command(Context& ctx, double v_mps, double w_radps);
