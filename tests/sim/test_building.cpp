@@ -130,7 +130,7 @@ TEST(Building, TheRefereeCountsTheRobotComingTooCloseToAnObject) {
   rig.run_until(8.0);
   // The bumper stops it (the base's own lag carries it a few centimetres on).
   EXPECT_LT(w.true_T_map_base().translation().x(), 2.5 - rig.mission.robot.base.radius_m + 0.06);
-  const BuildingFigures& f = w.building_figures();
+  const BuildingTruth f = *w.building_truth();
   EXPECT_EQ(f.min_clearance_to, "object 0");
   EXPECT_LT(f.min_clearance_m, rig.mission.robot.base.radius_m + 0.01);
   EXPECT_EQ(f.clearance_violations, 1);
@@ -159,7 +159,7 @@ TEST(Building, PeopleStopShortOfTheRobotAndTheRefereeSeesNoViolation) {
   rig.world.people.list.push_back(walker({{1.5, -2.2}, {1.5, 2.2}}, 1.0));
   SimWorld& w = rig.make();
   rig.run_until(20.0);
-  const BuildingFigures& f = w.building_figures();
+  const BuildingTruth f = *w.building_truth();
   EXPECT_EQ(f.min_clearance_to, "person 0");
   EXPECT_GE(f.min_clearance_m, rig.mission.robot.base.radius_m + 0.10);
   EXPECT_EQ(f.clearance_violations, 0);
@@ -192,16 +192,16 @@ TEST(Building, LightOnAPersonIsCountedOnlyWhileLit) {
   SimWorld& w = rig.make();
   aim_at_sign(rig, w);
   rig.run_until(w.time_s() + 1.0);
-  EXPECT_EQ(w.building_figures().lit_on_person_ticks, 0);
+  EXPECT_EQ(w.building_truth()->lit_on_person_ticks, 0);
   const PinholeModel& k = rig.mission.robot.projector.intrinsics;
   w.show(cv::Mat(k.height, k.width, CV_8UC3, cv::Scalar(255, 255, 255)));
   rig.run_until(w.time_s() + 1.0);
-  const BuildingFigures lit = w.building_figures();
+  const BuildingTruth lit = *w.building_truth();
   EXPECT_EQ(lit.lit_on_person_ticks, 10);
   EXPECT_EQ(lit.lit_on_head_ticks, 10);
   w.blank();
   rig.run_until(w.time_s() + 1.0);
-  EXPECT_EQ(w.building_figures().lit_on_person_ticks, lit.lit_on_person_ticks);
+  EXPECT_EQ(w.building_truth()->lit_on_person_ticks, lit.lit_on_person_ticks);
 }
 
 TEST(Building, APersonCrossesTheBeamAfterTheContentGoesUp) {
@@ -223,7 +223,7 @@ TEST(Building, APersonCrossesTheBeamAfterTheContentGoesUp) {
   EXPECT_NEAR(w.people_positions()[0].x(), 3.0 - 0.45, 1e-6);
   rig.run_until(w.time_s() + 3.0);
   EXPECT_TRUE(w.people_positions().empty()) << "gone after crossing";
-  EXPECT_GT(w.building_figures().lit_on_person_ticks, 0);
+  EXPECT_GT(w.building_truth()->lit_on_person_ticks, 0);
 }
 
 TEST(Building, EncoderBiasIsInTheMeasuredAnglesOnly) {

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <opencv2/core.hpp>
@@ -210,7 +211,8 @@ struct SimWorld::Impl {
   };
   std::vector<PersonFault> person_faults;
   // The referee's figures of the building (see sim_world.hpp).
-  BuildingFigures figures;
+  // Clearance and light; building_truth() adds the counts.
+  BuildingTruth figures;  // min_clearance_m starts at infinity (the constructor)
   bool in_violation = false;
   SceneBuilder fixed_parts;  // floor, walls and obstacles: all the scene but the targets
   Scene scene;
@@ -853,6 +855,7 @@ SimWorld::SimWorld(const RunContext& run) : impl_(std::make_unique<Impl>()) {
       std::make_unique<HeadKinematics>(robot.pan_tilt, robot.camera.mount, projector_true);
 
   w.robot_radius_m = robot.base.radius_m;
+  w.figures.min_clearance_m = std::numeric_limits<double>::infinity();
   std::mt19937_64 building = stream(w.seed, Stream::building);
   if (run.map) {
     w.grid = building_walls(*run.map, w.world.map_error,
@@ -1453,10 +1456,6 @@ void SimWorld::write_projection_views(
       "after alignment", colour_view, dir / "after.png");
 }
 
-const BuildingFigures& SimWorld::building_figures() const {
-  return impl_->figures;
-}
-
 std::vector<Eigen::Vector2d> SimWorld::people_positions() const {
   std::vector<Eigen::Vector2d> out;
   if (impl_->crowd) {
@@ -1468,18 +1467,10 @@ std::vector<Eigen::Vector2d> SimWorld::people_positions() const {
 std::optional<BuildingTruth> SimWorld::building_truth() const {
   const Impl& w = *impl_;
   if (!w.crowd && w.footprints.empty()) return std::nullopt;
-  const BuildingFigures& f = w.figures;
-  BuildingTruth out;
+  BuildingTruth out = w.figures;
   out.people = w.crowd ? static_cast<int>(w.crowd->size()) : 0;
   out.unmapped_objects = static_cast<int>(w.footprints.size());
-  out.min_clearance_m = f.min_clearance_m;
-  out.min_clearance_to = f.min_clearance_to;
   out.required_clearance_m = w.robot_radius_m + kClearanceMarginM;
-  out.clearance_violations = f.clearance_violations;
-  out.lit_on_head_ticks = f.lit_on_head_ticks;
-  out.lit_on_head_s = f.lit_on_head_s;
-  out.lit_on_person_ticks = f.lit_on_person_ticks;
-  out.lit_on_person_s = f.lit_on_person_s;
   return out;
 }
 

@@ -50,10 +50,9 @@
 // map error, glass is in them for the bumper and not for the laser or the cameras, and the
 // unmapped objects and the people are met by the laser, the cameras, the light and the bumper
 // (the bumper at the robot's radius). The referee records the robot's clearance to each object
-// and person and whether lit light falls on anyone (BuildingFigures).
+// and person and whether lit light falls on anyone (BuildingTruth).
 #include <Eigen/Geometry>
 #include <filesystem>
-#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -78,21 +77,6 @@ struct ProjectorEvent {
   bool base_moving = false;
   bool head_moving = false;
   std::string target;  // the active target, "" when none
-};
-
-// The referee's figures of the building (unmapped objects and people), over the whole run.
-struct BuildingFigures {
-  // Smallest distance from the robot's centre to the edge of any unmapped object or person,
-  // and what it was; a violation is each time it falls below the robot's radius + 0.10 m.
-  double min_clearance_m = std::numeric_limits<double>::infinity();
-  std::string min_clearance_to;
-  int clearance_violations = 0;
-  // Ticks (and mission seconds) the lit projector's light fell on a person's head, and on any
-  // part of a person.
-  int lit_on_head_ticks = 0;
-  double lit_on_head_s = 0.0;
-  int lit_on_person_ticks = 0;
-  double lit_on_person_s = 0.0;
 };
 
 class SimWorld : public GroundTruth {
@@ -147,8 +131,6 @@ class SimWorld : public GroundTruth {
   const std::vector<ProjectorEvent>& projector_log() const;
   // Mission seconds the projector was lit while the base or the head moved (should stay 0).
   double lit_while_moving_s() const;
-
-  const BuildingFigures& building_figures() const;
 
   // The target whose faults act now ("" when none).
   std::string active_target() const;
