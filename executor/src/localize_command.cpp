@@ -9,6 +9,7 @@
 #include <mrpt/obs/CSensoryFrame.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -21,24 +22,111 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/imgproc.hpp>
+
 #include "cli_options.hpp"
 #include "projtour/localizer.hpp"
 #include "projtour/occupancy_map.hpp"
+#include "projtour/path_planner.hpp"
 
 namespace projtour {
 
 namespace {
 
 constexpr const char* kUsage =
-    "usage: projtour localize --map M --rawlog R --init X,Y,YAW_DEG [--particles N] [--seed S] "
+    "usage: projtour localize --map M --rawlog R (--init X,Y,YAW_DEG | --score T.tum) "
+    "[--particles N] [--seed S] [--field boundary|occupied] [--truth GT] [--from-scan K] "
     "[--out T.tum]\n";
 
 struct Arguments {
-  std::string map, rawlog, out;
+  std::string map, rawlog, out, truth, score;
   Pose2D init;
+  bool have_init = false;
   int particles = LocalizerOptions{}.particles;
   std::uint64_t seed = 1;
+  LocalizerOptions::Field field = LocalizerOptions{}.lf_field;
+  int from_scan = 0;
 };
+
+// Endpoints this near a wall face of the map count as on it.
+constexpr double kOnMapM = 0.1;
+// A trajectory's pose is matched to a scan within this of its timestamp.
+constexpr double kMatchS = 0.05;
+
+struct StampedPose {
+  double t_s;
+  Pose2D pose;
+};
+
+// MRPT's ground truth ("t x y phi", phi in radians, more columns ignored) or TUM ("t x y z qx
+// qy qz qw"), told apart by the column count. Throws naming the file and line.
+std::vector<StampedPose> read_trajectory(const std::string& file) {
+  std::ifstream in(file);
+  if (!in) throw std::runtime_error(file + ": cannot read");
+  std::vector<StampedPose> out;
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    std::vector<double> v;
+    double x = 0.0;
+    while (fields >> x) v.push_back(x);
+    if (v.size() == 8) {
+      out.push_back({v[0], Pose2D{v[1], v[2], 2.0 * std::atan2(v[6], v[7])}});
+    } else if (v.size() >= 4 && v.size() != 8) {
+      out.push_back({v[0], Pose2D{v[1], v[2], v[3]}});
+    } else {
+      throw std::runtime_error(file + ":" + std::to_string(number) +
+                               ": expected \"t x y phi\" or TUM \"t x y z qx qy qz qw\"");
+    }
+  }
+  if (out.empty()) throw std::runtime_error(file + ": no poses");
+  std::sort(out.begin(), out.end(),
+            [](const StampedPose& a, const StampedPose& b) { return a.t_s < b.t_s; });
+  return out;
+}
+
+const StampedPose* nearest(const std::vector<StampedPose>& trajectory, double t_s) {
+  auto it = std::lower_bound(trajectory.begin(), trajectory.end(), t_s,
+                             [](const StampedPose& p, double t) { return p.t_s < t; });
+  const StampedPose* best = nullptr;
+  if (it != trajectory.end()) best = &*it;
+  if (it != trajectory.begin() && (!best || t_s - std::prev(it)->t_s < best->t_s - t_s)) {
+    best = &*std::prev(it);
+  }
+  return best && std::abs(best->t_s - t_s) <= kMatchS ? best : nullptr;
+}
+
+// Distance from each cell's centre to the nearest wall face. The face runs between cells, half a
+// cell from the centres on either side of it.
+cv::Mat wall_face_distance_m(const mrpt::maps::COccupancyGridMap2D& map) {
+  cv::Mat distance_m = (wall_face_distance_cells(map) - 0.5) * map.getResolution();
+  return cv::max(distance_m, 0.0);
+}
+
+// The scan's valid endpoints seen from `pose`, and how many lie within kOnMapM of a wall face.
+std::pair<std::size_t, std::size_t> endpoints_on_map(
+    const mrpt::maps::COccupancyGridMap2D& map, const cv::Mat& distance_m, const Pose2D& pose,
+    const mrpt::obs::CObservation2DRangeScan& scan) {
+  const std::vector<Eigen::Vector2d> ends = scan_endpoints_m(pose, scan);
+  std::size_t on = 0;
+  for (const Eigen::Vector2d& end : ends) {
+    const int cx = map.x2idx(end.x()), cy = map.y2idx(end.y());
+    if (cx >= 0 && cy >= 0 && cx < distance_m.cols && cy < distance_m.rows &&
+        distance_m.at<float>(cy, cx) <= kOnMapM + 1e-4) {  // a cell beside the face on 0.2 m cells
+      ++on;
+    }
+  }
+  return {on, ends.size()};
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
 
 bool parse_init(const std::string& text, Pose2D& out) {
   std::vector<double> values;
@@ -62,12 +150,29 @@ std::optional<Arguments> parse(int argc, char** argv) {
   app.add_option_function<std::string>("--map", [&](const std::string& v) { args.map = v; });
   app.add_option_function<std::string>("--rawlog", [&](const std::string& v) { args.rawlog = v; });
   app.add_option_function<std::string>("--out", [&](const std::string& v) { args.out = v; });
-  bool have_init = false;
+  app.add_option_function<std::string>("--truth", [&](const std::string& v) { args.truth = v; });
+  app.add_option_function<std::string>("--score", [&](const std::string& v) { args.score = v; });
+  app.add_option_function<std::string>("--field", [&](const std::string& v) {
+    if (v == "boundary") {
+      args.field = LocalizerOptions::Field::boundary;
+    } else if (v == "occupied") {
+      args.field = LocalizerOptions::Field::occupied;
+    } else {
+      throw CLI::ValidationError("--field", "expects boundary or occupied, got \"" + v + "\"");
+    }
+  });
+  cli::add_int(
+      app, "--from-scan",
+      [&](int n) {
+        if (n < 0) throw CLI::ValidationError("--from-scan", "must be >= 0");
+        args.from_scan = n;
+      },
+      "K");
   app.add_option_function<std::string>("--init", [&](const std::string& v) {
     if (!parse_init(v, args.init)) {
       throw CLI::ValidationError("--init", "expects X,Y,YAW_DEG, got \"" + v + "\"");
     }
-    have_init = true;
+    args.have_init = true;
   });
   cli::add_int(
       app, "--particles",
@@ -91,8 +196,9 @@ std::optional<Arguments> parse(int argc, char** argv) {
     std::cerr << "projtour localize: unknown option " << app.remaining().front() << "\n" << kUsage;
     return std::nullopt;
   }
-  if (args.map.empty() || args.rawlog.empty() || !have_init) {
-    std::cerr << "projtour localize: --map, --rawlog and --init are required\n" << kUsage;
+  if (args.map.empty() || args.rawlog.empty() || args.have_init == !args.score.empty()) {
+    std::cerr << "projtour localize: --map, --rawlog and one of --init and --score are required\n"
+              << kUsage;
     return std::nullopt;
   }
   return args;
@@ -148,6 +254,15 @@ int run_localize_command(int argc, char** argv) {
     return 2;
   }
 
+  std::vector<StampedPose> truth, scored;
+  try {
+    if (!args->truth.empty()) truth = read_trajectory(args->truth);
+    if (!args->score.empty()) scored = read_trajectory(args->score);
+  } catch (const std::exception& e) {
+    std::cerr << "projtour localize: " << e.what() << "\n";
+    return 2;
+  }
+
   std::ofstream file;
   if (!args->out.empty()) {
     file.open(args->out);
@@ -160,27 +275,50 @@ int run_localize_command(int argc, char** argv) {
 
   LocalizerOptions options;
   options.particles = args->particles;
+  options.lf_field = args->field;
   Localizer localizer(*map, options, args->seed);
   localizer.reset(args->init);
+  const cv::Mat distance_m = wall_face_distance_m(*map);
 
   // Odometry arrives either as action collections (increments) or, in observation-only
   // rawlogs, as absolute odometry readings; both become the increment since the last scan.
   Pose2D pending;
   std::optional<Pose2D> last_odometry;
-  std::size_t scans = 0, converged_scans = 0;
+  std::size_t scans = 0, converged_scans = 0, unscored = 0;
+  std::size_t endpoints_on = 0, endpoints = 0;
+  std::vector<double> errors_m;
   double update_s = 0.0;
   Progress progress(rawlog.size());
   auto process_scan = [&](const mrpt::obs::CObservation2DRangeScan& scan) {
-    const auto t0 = std::chrono::steady_clock::now();
-    localizer.update(pending, scan);
-    update_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    pending = Pose2D{};
     const double t_s = scan.timestamp == mrpt::Clock::time_point()
                            ? static_cast<double>(scans)
                            : mrpt::Clock::toDouble(scan.timestamp);
-    write_tum(out, t_s, localizer.estimate().mean);
-    ++scans;
-    if (localizer.converged()) ++converged_scans;
+    std::optional<Pose2D> pose;
+    if (scored.empty()) {
+      const auto t0 = std::chrono::steady_clock::now();
+      localizer.update(pending, scan);
+      update_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      pose = localizer.estimate().mean;
+      if (localizer.converged()) ++converged_scans;
+    } else if (const StampedPose* p = nearest(scored, t_s)) {
+      pose = p->pose;
+    }
+    pending = Pose2D{};
+    const bool counted = static_cast<int>(scans++) >= args->from_scan;
+    if (!pose) {
+      ++unscored;
+      return;
+    }
+    write_tum(out, t_s, *pose);
+    if (!counted) return;
+    const auto [on, valid] = endpoints_on_map(*map, distance_m, *pose, scan);
+    endpoints_on += on;
+    endpoints += valid;
+    if (!truth.empty()) {
+      if (const StampedPose* t = nearest(truth, t_s)) {
+        errors_m.push_back(std::hypot(pose->x_m - t->pose.x_m, pose->y_m - t->pose.y_m));
+      }
+    }
   };
   auto add_odometry = [&](const Pose2D& increment) { pending = pose_compose(pending, increment); };
 
@@ -237,13 +375,34 @@ int run_localize_command(int argc, char** argv) {
     std::cerr << "projtour localize: " << args->rawlog << ": no 2-D laser scans\n";
     return 2;
   }
-  const PoseEstimate2D final_estimate = localizer.estimate();
-  std::fprintf(stderr,
-               "localize: %zu scans, converged for %zu (%.0f%%), final std %.3f m %.2f deg, "
-               "scans on the map's walls %.0f%%, %.2f ms per update with %zu particles\n",
-               scans, converged_scans, 100.0 * converged_scans / scans,
-               position_std_m(final_estimate), rad_to_deg(yaw_std_rad(final_estimate)),
-               100.0 * localizer.scan_fit(), 1000.0 * update_s / scans, localizer.particle_count());
+  if (scored.empty()) {
+    const PoseEstimate2D final_estimate = localizer.estimate();
+    std::fprintf(stderr,
+                 "localize: %zu scans, converged for %zu (%.0f%%), final std %.3f m %.2f deg, "
+                 "scans on the map's walls %.0f%%, %.2f ms per update with %zu particles\n",
+                 scans, converged_scans, 100.0 * converged_scans / scans,
+                 position_std_m(final_estimate), rad_to_deg(yaw_std_rad(final_estimate)),
+                 100.0 * localizer.scan_fit(), 1000.0 * update_s / scans,
+                 localizer.particle_count());
+  } else {
+    std::fprintf(stderr, "localize: %zu scans, %zu with no pose in %s\n", scans, unscored,
+                 args->score.c_str());
+  }
+  std::fprintf(
+      stderr, "localize: endpoints within %.2f m of a wall face from scan %d: %.1f%% of %zu\n",
+      kOnMapM, args->from_scan, endpoints ? 100.0 * endpoints_on / endpoints : 0.0, endpoints);
+  if (!truth.empty()) {
+    if (errors_m.empty()) {
+      std::cerr << "projtour localize: " << args->truth << ": no pose within " << kMatchS
+                << " s of any scan\n";
+      return 2;
+    }
+    double sum_sq = 0.0;
+    for (double e : errors_m) sum_sq += e * e;
+    std::fprintf(stderr, "localize: ATE over %zu scans: rms %.4f m, median %.4f m, max %.4f m\n",
+                 errors_m.size(), std::sqrt(sum_sq / errors_m.size()), median(errors_m),
+                 *std::max_element(errors_m.begin(), errors_m.end()));
+  }
   return 0;
 }
 

@@ -23,6 +23,10 @@ LocalizerOptions options_from(const Params& p) {
   o.odom_rot_noise_frac = p.number("odom_rot_noise_frac");
   o.lf_sigma_m = p.number("lf_sigma_m");
   o.lf_decimation = static_cast<int>(p.integer("lf_decimation"));
+  o.lf_field = p.string("lf_field") == "occupied" ? LocalizerOptions::Field::occupied
+                                                  : LocalizerOptions::Field::boundary;
+  o.short_reading_m = p.number("short_reading_m");
+  o.inject_max_frac = p.number("inject_max_frac");
   o.converged_std_m = p.number("converged_std_m");
   o.converged_std_deg = p.number("converged_std_deg");
   o.converged_min_fit = p.number("converged_min_fit");
@@ -110,6 +114,12 @@ int validate(const void* raw, char* error, size_t error_size) {
     why = "update_every_scans: expected at least 1";
   else if (!(p.number("lf_sigma_m") > 0.0))
     why = "lf_sigma_m: expected a positive number";
+  else if (p.string("lf_field") != "boundary" && p.string("lf_field") != "occupied")
+    why = "lf_field: expected \"boundary\" or \"occupied\", got \"" + p.string("lf_field") + "\"";
+  else if (!(p.number("short_reading_m") >= 0.0))
+    why = "short_reading_m: expected 0 (off) or a positive number";
+  else if (!(p.number("inject_max_frac") >= 0.0 && p.number("inject_max_frac") <= 1.0))
+    why = "inject_max_frac: expected a number from 0 to 1";
   if (why.empty()) return 0;
   plugin_detail::copy_message(why.c_str(), error, error_size);
   return 1;
@@ -123,6 +133,18 @@ const projtour_param_desc kParams[] = {
     {"odom_rot_noise_frac", "number", "0.08", "odometry error per radian turned"},
     {"lf_sigma_m", "number", "0.1", "laser likelihood field: range error standard deviation"},
     {"lf_decimation", "integer", "6", "use one laser ray in this many"},
+    {"lf_field", "string", "boundary",
+     "likelihood field from the walls' boundary (\"boundary\") or every occupied cell "
+     "(\"occupied\", MRPT's own; forgives endpoints inside thick walls)"},
+    {"short_reading_m", "number", "0.3",
+     "once converged, leave out rays this much shorter than the map predicts (0: off)"},
+    // Off in a tour: there navigate reports `lost` when the scans stop fitting and relocalize
+    // spreads the cloud afresh; a local redraw pre-empts that and can settle on a nearby pose that
+    // fits as well (a robot carried 2 m, tests/integration/data/w_kidnap.yaml: 1.5 m off with
+    // every ray on a wall). On for `projtour localize`, which has no relocalize.
+    {"inject_max_frac", "number", "0",
+     "depletion guard: largest share of particles redrawn near the estimate when the scans "
+     "suddenly stop fitting (0: off, the default: navigate's lost and relocalize recover)"},
     {"update_min_dist_m", "number", "0.05", "filter update after this much travel"},
     {"update_min_angle_deg", "number", "2", "filter update after this much turning"},
     {"update_every_scans", "integer", "5", "filter update at least every N scans at rest"},

@@ -88,7 +88,8 @@ std::optional<LaserScan> SimLaser::take_scan() {
   return out;
 }
 
-Rig::Rig(const std::string& map_file, const Pose2D& start, std::uint64_t seed, Drivers drivers)
+Rig::Rig(const std::string& map_file, const Pose2D& start, std::uint64_t seed, Drivers drivers,
+         const std::function<void(Params&)>& tune_localization)
     : map_(load_occupancy_grid(map_file)) {
   world_.map = std::make_shared<mrpt::maps::COccupancyGridMap2D>(*map_);
   world_.rebuild_bumper();
@@ -117,6 +118,7 @@ Rig::Rig(const std::string& map_file, const Pose2D& start, std::uint64_t seed, D
         registry_.create_driver("sim_laser", defaults("sim_laser"), run_));
   }
   localization_params_ = defaults("mrpt_localization");
+  if (tune_localization) tune_localization(localization_params_);
   localization_ = registry_.create_service("mrpt_localization", localization_params_, run_);
   for (const auto& d : drivers_.all()) d->update(0.0);
   Context ctx = context(&localization_params_, nullptr);

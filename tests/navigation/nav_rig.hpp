@@ -4,6 +4,7 @@
 // service and one behaviour from the built plugins, stepped on a fixed clock.
 #include <mrpt/maps/COccupancyGridMap2D.h>
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <random>
@@ -67,8 +68,10 @@ enum class Drivers { harness, sim_plugin };
 class Rig {
  public:
   // `map_file` is what the robot believes; the world starts as the same map.
+  // `tune_localization` changes the localization service's parameters before it starts.
   Rig(const std::string& map_file, const Pose2D& start, std::uint64_t seed,
-      Drivers drivers = Drivers::harness);
+      Drivers drivers = Drivers::harness,
+      const std::function<void(Params&)>& tune_localization = {});
   ~Rig();
 
   // The harness's world (Drivers::harness only).

@@ -140,6 +140,71 @@ TEST(LocalizeCommand, SameSeedSameTrajectory) {
   EXPECT_EQ(first, slurp(run_localize(3)));
 }
 
+// MRPT's simulated drive on a hand-drawn map whose walls are ~3 m (15 cells) thick, with ground
+// truth (maps/SOURCE.md). The laser only ever saw each wall's face; a likelihood field over
+// every occupied cell forgives endpoints that fall inside the wall, and the estimate slides along
+// the corridors.
+const std::string kDriveDir =
+    "/usr/share/mrpt/datasets/graphslam-engine-demos/action_observations_map/";
+
+struct Ate {
+  double rms_m = 0.0, max_m = 0.0;
+  std::size_t matched = 0;
+};
+
+Ate ate_on_drive(const std::string& map_name, const std::string& field) {
+  const auto out = test::scratch_dir() / ("drive_" + map_name + "_" + field + ".tum");
+  std::vector<std::string> args = {"localize",
+                                   "--map",
+                                   std::string(PROJTOUR_SOURCE_DIR) + "/maps/" + map_name + ".yaml",
+                                   "--rawlog",
+                                   kDriveDir + "simul.rawlog",
+                                   "--init",
+                                   "0,0,0",
+                                   "--field",
+                                   field,
+                                   "--out",
+                                   out.string()};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  EXPECT_EQ(run_localize_command(static_cast<int>(argv.size()), argv.data()), 0);
+  const auto estimate = read_tum(out);
+  std::ifstream truth_file(kDriveDir + "simul.rawlog.GT.txt");
+  std::vector<std::pair<double, Pose2D>> truth;
+  double t, x, y, phi;
+  while (truth_file >> t >> x >> y >> phi) truth.push_back({t, Pose2D{x, y, phi}});
+  Ate ate;
+  double sum_sq = 0.0;
+  std::size_t j = 0;
+  for (const TumPose& e : estimate) {
+    while (j + 1 < truth.size() && truth[j + 1].first <= e.t_s + 1e-4) ++j;
+    if (std::abs(truth[j].first - e.t_s) > 0.01) continue;
+    const double d = std::hypot(e.pose.x_m - truth[j].second.x_m, e.pose.y_m - truth[j].second.y_m);
+    sum_sq += d * d;
+    ate.max_m = std::max(ate.max_m, d);
+    ++ate.matched;
+  }
+  ate.rms_m = ate.matched ? std::sqrt(sum_sq / ate.matched) : 1e9;
+  return ate;
+}
+
+TEST(ThickWalls, TheBoundaryFieldFollowsTheDrive) {
+  const Ate ate = ate_on_drive("graphslam_basic_thick", "boundary");
+  EXPECT_GT(ate.matched, 1700u);
+  EXPECT_LT(ate.rms_m, 0.05) << "max " << ate.max_m;
+}
+
+TEST(ThickWalls, TheAllCellsFieldSlidesAlongTheCorridors) {
+  const Ate ate = ate_on_drive("graphslam_basic_thick", "occupied");
+  EXPECT_GT(ate.rms_m, 0.2) << "the regression this pins is gone: update the note";
+}
+
+TEST(ThinWalls, TheBoundaryFieldFollowsTheDrive) {
+  const Ate ate = ate_on_drive("graphslam_basic_thin", "boundary");
+  EXPECT_GT(ate.matched, 1700u);
+  EXPECT_LT(ate.rms_m, 0.035) << "max " << ate.max_m;
+}
+
 TEST(LocalizeCommand, BadArgumentsAreInvalidInput) {
   std::vector<std::string> args = {"localize", "--map", kMap, "--init", "1,2"};
   std::vector<char*> argv;
@@ -160,6 +225,8 @@ TEST(LocalizeCommand, BadNumbersAndRepeatedOptionsNameTheOption) {
       {{"--init", "1,2,nan"}, "--init"},
       {{"--init", "1,2,3x"}, "--init"},
       {{"--out", "a.tum", "--out", "b.tum"}, "--out"},
+      {{"--field", "walls"}, "--field"},
+      {{"--from-scan", "-1"}, "--from-scan"},
   };
   for (const auto& [extra, option] : cases) {
     std::vector<std::string> args = {"localize", "--map",  kMap,   "--rawlog",
