@@ -19,12 +19,20 @@ void measure_navigate(const Context& ctx, const NavigateResult& result, GroundTr
       result.arrived_at ? &*result.arrived_at : ctx.blackboard().find(keys::kLocalization);
   if (estimate == nullptr) return;
   // Both on the floor plane: the estimate has no z, roll or pitch.
-  const Eigen::Isometry3d T_map_base_true =
-      isometry_from_pose2d(pose2d_from_isometry(truth->true_T_map_base()));
+  const auto on_floor = [](const Eigen::Isometry3d& T) {
+    return isometry_from_pose2d(pose2d_from_isometry(T));
+  };
   const Eigen::Isometry3d T_map_base = isometry_from_pose2d(estimate->mean);
-  out.localization_error =
-      LocalizationError{translation_distance_m(T_map_base, T_map_base_true),
-                        rad_to_deg(rotation_angle_rad(T_map_base, T_map_base_true))};
+  const Eigen::Isometry3d T_drawn = on_floor(truth->true_T_map_base_as_drawn());
+  const Eigen::Isometry3d T_building = on_floor(truth->true_T_map_base());
+  LocalizationError e{translation_distance_m(T_map_base, T_drawn),
+                      rad_to_deg(rotation_angle_rad(T_map_base, T_drawn)), std::nullopt,
+                      std::nullopt};
+  if (!T_drawn.isApprox(T_building, 1e-12)) {
+    e.building_trans_m = translation_distance_m(T_map_base, T_building);
+    e.building_rot_deg = rad_to_deg(rotation_angle_rad(T_map_base, T_building));
+  }
+  out.localization_error = e;
 }
 
 void measure_align(const Context& ctx, const AlignResult& result, GroundTruth* truth,

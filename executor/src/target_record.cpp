@@ -48,13 +48,17 @@ void to_json(Json& j, const LocalizationError& e) {
   j = Json::object();
   j["trans_m"] = e.trans_m;
   j["rot_deg"] = e.rot_deg;
+  if (e.building_trans_m) j["building_trans_m"] = *e.building_trans_m;
+  if (e.building_rot_deg) j["building_rot_deg"] = *e.building_rot_deg;
 }
 
 void from_json(const Json& j, LocalizationError& e) {
   expect_object(j, "the value");
-  reject_unknown(j, {"trans_m", "rot_deg"});
+  reject_unknown(j, {"trans_m", "rot_deg", "building_trans_m", "building_rot_deg"});
   e.trans_m = number_at(j, "trans_m");
   e.rot_deg = number_at(j, "rot_deg");
+  if (j.contains("building_trans_m")) e.building_trans_m = number_at(j, "building_trans_m");
+  if (j.contains("building_rot_deg")) e.building_rot_deg = number_at(j, "building_rot_deg");
 }
 
 void to_json(Json& j, const TargetPoseError& e) {

@@ -162,7 +162,7 @@ TargetRecord full_record() {
   r.retries = 2;
   r.measurements.projected_s = 8.0;
   r.measurements.align = AlignFigures{"projective_icp", 1.25, 19, 0.75, 1.5};
-  r.measurements.localization_error = LocalizationError{0.01, 0.02};
+  r.measurements.localization_error = LocalizationError{0.01, 0.02, 0.03, 0.04};
   r.measurements.target_pose_error = TargetPoseError{0.5, 0.25};
   r.measurements.projection_error_mm = BeforeAfter{7.0, 2.0};
   r.measurements.projection_error_px = BeforeAfter{std::nullopt, 3.0};
@@ -172,13 +172,14 @@ TargetRecord full_record() {
 TEST(TargetRecordJson, WritesDesignOrderAndReadsBack) {
   const TargetRecord r = full_record();
   const std::string text = dump_json(Json(r));
-  EXPECT_EQ(text,
-            R"({"id": "rabbit", "outcome": "projected", "retries": 2, "projected_s": 8.0, )"
-            R"("align": {"method": "projective_icp", "time_ms": 1.25, "iterations": 19, )"
-            R"("inlier_fraction": 0.75, "rmse_mm": 1.5}, "localization_error": {"trans_m": 0.01, )"
-            R"("rot_deg": 0.02}, "target_pose_error": {"trans_mm": 0.5, "rot_deg": 0.25}, )"
-            R"("projection_error_mm": {"before_align": 7.0, "after_align": 2.0}, )"
-            R"("projection_error_px": {"after_align": 3.0}})");
+  EXPECT_EQ(
+      text,
+      R"({"id": "rabbit", "outcome": "projected", "retries": 2, "projected_s": 8.0, )"
+      R"("align": {"method": "projective_icp", "time_ms": 1.25, "iterations": 19, )"
+      R"("inlier_fraction": 0.75, "rmse_mm": 1.5}, "localization_error": {"trans_m": 0.01, )"
+      R"("rot_deg": 0.02, "building_trans_m": 0.03, "building_rot_deg": 0.04}, "target_pose_error": {"trans_mm": 0.5, "rot_deg": 0.25}, )"
+      R"("projection_error_mm": {"before_align": 7.0, "after_align": 2.0}, )"
+      R"("projection_error_px": {"after_align": 3.0}})");
   const TargetRecord back = parse_json(text, "record").get<TargetRecord>();
   EXPECT_EQ(dump_json(Json(back)), text);
   ASSERT_TRUE(back.measurements.align.has_value());

@@ -23,6 +23,9 @@ GroundTruth* Driver::ground_truth() {
   return nullptr;
 }
 GroundTruth::~GroundTruth() = default;
+Eigen::Isometry3d GroundTruth::true_T_map_base_as_drawn() const {
+  return true_T_map_base();
+}
 std::optional<BuildingTruth> GroundTruth::building_truth() const {
   return std::nullopt;
 }

@@ -15,8 +15,13 @@ using AlignFigures = AlignQuality;
 
 // The localization estimate against the simulator's true base pose, on the floor plane.
 struct LocalizationError {
+  // Against where the map draws the place the robot truly stands: the localizer's own error.
   double trans_m = 0.0;
   double rot_deg = 0.0;
+  // Against the building, when the map is off the building (a world's map error): the
+  // localizer's error plus the map's there.
+  std::optional<double> building_trans_m;
+  std::optional<double> building_rot_deg;
 };
 
 // The aligned camera-to-model pose against the truth.

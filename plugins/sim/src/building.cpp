@@ -101,6 +101,14 @@ double Footprint::ray_hit_m(const Eigen::Vector2d& origin, const Eigen::Vector2d
   return t0 > 0.0 ? t0 : kInf;  // from inside: the laser sees nothing of it
 }
 
+Eigen::Vector2d map_point_of(const Eigen::Vector2d& building_m, const MapErrorSpec& error,
+                             const Eigen::Vector2d& about_m) {
+  const Eigen::Vector2d centre = error.rotation_about_m.value_or(about_m);
+  const Eigen::Rotation2Dd R_inv(-deg_to_rad(error.rotation_deg));
+  const Eigen::Vector2d shift(error.shift_x_m, error.shift_y_m);
+  return centre + R_inv * (building_m - shift - centre);
+}
+
 std::shared_ptr<mrpt::maps::COccupancyGridMap2D> building_walls(
     const mrpt::maps::COccupancyGridMap2D& map, const MapErrorSpec& error,
     const Eigen::Vector2d& about_m) {
@@ -110,13 +118,10 @@ std::shared_ptr<mrpt::maps::COccupancyGridMap2D> building_walls(
   if (error.rotation_deg != 0.0 || error.shift_x_m != 0.0 || error.shift_y_m != 0.0) {
     // Each building cell takes the map cell it came from (nearest): the map is the building
     // moved back.
-    const Eigen::Vector2d centre = error.rotation_about_m.value_or(about_m);
-    const Eigen::Rotation2Dd R_inv(-deg_to_rad(error.rotation_deg));
-    const Eigen::Vector2d shift(error.shift_x_m, error.shift_y_m);
     for (int j = 0; j < ny; ++j) {
       for (int i = 0; i < nx; ++i) {
-        const Eigen::Vector2d p(map.idx2x(i), map.idx2y(j));
-        const Eigen::Vector2d q = centre + R_inv * (p - shift - centre);
+        const Eigen::Vector2d q =
+            map_point_of(Eigen::Vector2d(map.idx2x(i), map.idx2y(j)), error, about_m);
         const int si = map.x2idx(q.x()), sj = map.y2idx(q.y());
         out->setCell(i, j, in_grid(map, si, sj) ? map.getCell(si, sj) : 0.5f);
       }

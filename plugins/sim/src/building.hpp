@@ -36,6 +36,12 @@ struct Footprint {
   double ray_hit_m(const Eigen::Vector2d& origin, const Eigen::Vector2d& dir) const;
 };
 
+// Where a point of the building is drawn on the map: the map is the building moved back by the
+// map error's shift and turned back by its rotation (about `about_m` unless the error names a
+// point).
+Eigen::Vector2d map_point_of(const Eigen::Vector2d& building_m, const MapErrorSpec& error,
+                             const Eigen::Vector2d& about_m);
+
 // The building's walls as a grid like the map: the map turned and shifted, its walls thinned
 // (each keeps its middle cell), walls missing from the building cleared and extra ones drawn.
 // `about_m` is where the rotation turns when the map error names no point.

@@ -1391,6 +1391,16 @@ Eigen::Isometry3d SimWorld::true_T_map_base() const {
   return impl_->T_map_base();
 }
 
+Eigen::Isometry3d SimWorld::true_T_map_base_as_drawn() const {
+  const Pose2D p = impl_->true_pose();
+  const MapErrorSpec& error = impl_->world.map_error;
+  const Eigen::Vector2d on_map =
+      map_point_of(Eigen::Vector2d(p.x_m, p.y_m), error,
+                   Eigen::Vector2d(impl_->mission->start.x_m, impl_->mission->start.y_m));
+  return isometry_from_pose2d(
+      Pose2D{on_map.x(), on_map.y(), wrap_angle_rad(p.yaw_rad - deg_to_rad(error.rotation_deg))});
+}
+
 Eigen::Isometry3d SimWorld::true_T_map_camera() const {
   return impl_->T_map_base() * impl_->head_true->T_base_camera(impl_->q_true);
 }

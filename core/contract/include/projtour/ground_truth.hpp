@@ -55,6 +55,10 @@ class GroundTruth {
  public:
   virtual ~GroundTruth();
   virtual Eigen::Isometry3d true_T_map_base() const = 0;
+  // The true base pose as the robot's map draws that place: a map shifted or turned against the
+  // building (a world's map error) moves it. The best localization on that map can do; the same
+  // as true_T_map_base() when the map is right.
+  virtual Eigen::Isometry3d true_T_map_base_as_drawn() const;
   virtual Eigen::Isometry3d true_T_map_camera() const = 0;
   virtual Eigen::Isometry3d true_T_map_model(const std::string& target_id) const = 0;
   // The true projector ray through each pixel the robot chose for a content corner, met with

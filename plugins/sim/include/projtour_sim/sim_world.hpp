@@ -141,6 +141,7 @@ class SimWorld : public GroundTruth {
 
   // GroundTruth.
   Eigen::Isometry3d true_T_map_base() const override;
+  Eigen::Isometry3d true_T_map_base_as_drawn() const override;
   Eigen::Isometry3d true_T_map_camera() const override;
   Eigen::Isometry3d true_T_map_model(const std::string& target_id) const override;
   // The true projector pose: the robot file's mount perturbed by the calibration error.
