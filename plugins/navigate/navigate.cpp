@@ -18,6 +18,8 @@ namespace {
 
 // Turn in place rather than drive when the carrot is this far off the heading.
 constexpr double kTurnInPlaceRad = 0.9;
+// Held up by something ahead, it turns towards the path unless already this well on it.
+constexpr double kAlignedRad = 0.1;
 // Slow down over the last stretch so the stop lands within tolerance.
 constexpr double kApproachGain = 0.8;  // (m/s) per m
 constexpr double kMinApproachSpeedMps = 0.04;
@@ -28,6 +30,8 @@ constexpr double kAimFraction = 0.4;
 // Counts as progress.
 constexpr double kProgressM = 0.05;
 constexpr double kReplanPeriodS = 1.0;
+// A path blocks on what is already within the clearance only if it leads this much nearer.
+constexpr double kNearerM = 0.02;
 // Re-approach stand-offs are tried this far apart.
 constexpr double kReapproachStepM = 0.05;
 // What the laser sees that the map lacks (furniture, people) is kept this much farther off
@@ -56,6 +60,7 @@ Navigate::Navigate(const Params& params, const RunContext& run)
       lost_std_m_(params.number("lost_std_m")),
       lost_unconverged_s_(params.number("lost_unconverged_s")),
       obstacle_lookahead_m_(params.number("obstacle_lookahead_m")),
+      max_detour_m_(params.number("max_detour_m")),
       reapproach_margin_px_(params.number("reapproach_margin_px")),
       reapproach_max_extra_m_(params.number("reapproach_max_extra_m")) {
   if (!run.map) throw std::runtime_error("navigate needs the mission's map");
@@ -139,14 +144,24 @@ void Navigate::start(Context& ctx) {
   last_replan_s_ = -1e9;
   last_converged_s_ = start_s_;
   best_remaining_m_ = std::numeric_limits<double>::infinity();
+  rebase_progress_ = false;
 }
 
-bool Navigate::replan(Context& ctx, const Pose2D& from) {
+bool Navigate::replan(Context& ctx, const Pose2D& from, double max_length_m) {
   last_replan_s_ = ctx.state_elapsed_s();
   auto path = planner_->plan({from.x_m, from.y_m}, {goal_.x_m, goal_.y_m});
   if (!path) return false;
+  double length_m = 0.0;
+  for (std::size_t i = 1; i < path->points_m.size(); ++i) {
+    length_m += (path->points_m[i] - path->points_m[i - 1]).norm();
+  }
+  if (length_m > max_length_m) return false;
   path_ = std::move(*path);
   progress_index_ = 0;
+  // A detour around what the laser sees is longer than the path it replaces: progress is then
+  // measured along the new path from where it starts, or driving round a person would read as
+  // none (issue 14: seed 3's rabbit was left "blocked" while the robot drove its detour).
+  rebase_progress_ = true;
   std::vector<Pose2D> poses;
   for (std::size_t i = 0; i < path_.points_m.size(); ++i) {
     const Eigen::Vector2d& p = path_.points_m[i];
@@ -198,13 +213,17 @@ std::vector<Eigen::Vector2d> Navigate::obstacles_on_path(Context& ctx, const Pos
     const Eigen::Vector2d p = p_map.head<2>();
     // What the map already has is planned around; only new things block.
     if (!grid.is_free_space(p)) continue;
+    // Something already nearer than the clearance (a person who stepped up beside it) blocks
+    // only a path that comes nearer still: every path starts where the robot stands, and one that
+    // leads away must be allowed, or the robot waits beside it forever.
+    const double blocking_m = std::min(clearance_m, (p - robot).norm() - kNearerM);
     double along_m = 0.0;
     for (std::size_t k = progress_index_; k + 1 < path_.points_m.size(); ++k) {
       const Eigen::Vector2d a_m = path_.points_m[k], b_m = path_.points_m[k + 1];
       const Eigen::Vector2d ab = b_m - a_m;
       const double t =
           ab.squaredNorm() > 0 ? std::clamp((p - a_m).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
-      if ((a_m + t * ab - p).norm() < clearance_m && (p - robot).norm() > 0.05) {
+      if ((a_m + t * ab - p).norm() < blocking_m) {
         hits.push_back(p);
         break;
       }
@@ -272,7 +291,10 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
   // Progress: path left plus the heading still to turn once there.
   const double remaining =
       remaining_m(pose) + (final_turn_ ? 0.3 * std::abs(yaw_error_rad) : 0.3 * kPi);
-  if (remaining < best_remaining_m_ - kProgressM) {
+  if (rebase_progress_) {
+    rebase_progress_ = false;
+    best_remaining_m_ = remaining;
+  } else if (remaining < best_remaining_m_ - kProgressM) {
     best_remaining_m_ = remaining;
     last_progress_s_ = now_s;
   } else if (now_s - last_progress_s_ > blocked_s_) {
@@ -298,8 +320,9 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
           }
         }
         planner_->grid().add_obstacles(grown);
-        if (!replan(ctx, pose)) {
-          // Perhaps it moves away: forget what was seen and try again next period.
+        if (!replan(ctx, pose, remaining_m(pose) + max_detour_m_)) {
+          // No way round, or only a long one: wait on the path it has, for what blocks it may
+          // move away; forget what was seen and try again next period.
           planner_ = std::make_unique<PathPlanner>(*map_planner_);
         }
       }
@@ -334,7 +357,15 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
     return std::nullopt;
   }
   double v = std::min(max_speed_mps_, std::max(kMinApproachSpeedMps, kApproachGain * goal_dist_m));
-  v = std::min(v, safe_speed_mps(ctx, pose));
+  const double safe_mps = safe_speed_mps(ctx, pose);
+  if (safe_mps < kMinApproachSpeedMps && std::abs(alpha) > kAlignedRad) {
+    // Too near something ahead to drive, but the path turns off: a round base turns in place
+    // without coming nearer anything, and what is then abeam no longer holds it.
+    const double w_turn = clamp(kTurnGain * alpha, max_turn_rate_radps_);
+    command(ctx, 0, std::copysign(std::max(std::abs(w_turn), kMinTurnRateRadps), w_turn));
+    return std::nullopt;
+  }
+  v = std::min(v, safe_mps);
   v *= std::cos(alpha);
   double w = 2.0 * v * std::sin(alpha) / distance_m;
   if (std::abs(w) > max_turn_rate_radps_) {
@@ -367,6 +398,10 @@ double Navigate::safe_speed_mps(Context& ctx, const Pose2D& pose) const {
     const double distance_m = d.norm();
     const double closing = (c * d.x() + s * d.y()) / std::max(distance_m, 1e-9);
     if (closing <= 0.05) continue;
+    // What is already nearer than keep_m (someone who stepped up beside it) holds the robot only
+    // if driving on brings it nearer still, as a path does: else it stands there forever.
+    const double abeam_m = distance_m * std::sqrt(std::max(0.0, 1.0 - closing * closing));
+    if (distance_m < keep_m && abeam_m >= distance_m - kNearerM) continue;
     speed_mps = std::min(speed_mps, std::max(0.0, distance_m - keep_m) / (kStopTimeS * closing));
   }
   return speed_mps;

@@ -1,4 +1,5 @@
 #pragma once
+#include <limits>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -22,7 +23,9 @@ class Navigate : public Behaviour {
   void pause(Context& ctx) override;
 
  private:
-  bool replan(Context& ctx, const Pose2D& from);
+  // Takes a new path unless none exists or it is longer than max_length_m.
+  bool replan(Context& ctx, const Pose2D& from,
+              double max_length_m = std::numeric_limits<double>::infinity());
   // Laser points not on the map that lie on the path ahead, in the map frame.
   std::vector<Eigen::Vector2d> obstacles_on_path(Context& ctx, const Pose2D& pose) const;
   // How fast it may drive and still stop short of what the laser sees ahead.
@@ -33,7 +36,8 @@ class Navigate : public Behaviour {
 
   // Parameters.
   double tolerance_m_, tolerance_rad_, lookahead_m_, max_speed_mps_, max_turn_rate_radps_;
-  double blocked_s_, timeout_s_, lost_std_m_, lost_unconverged_s_, obstacle_lookahead_m_;
+  double blocked_s_, timeout_s_, lost_std_m_, lost_unconverged_s_, obstacle_lookahead_m_,
+      max_detour_m_;
   double reapproach_margin_px_, reapproach_max_extra_m_;
   std::optional<Outcome> early_;  // decided in start(): no stand-off to re-approach from
 
@@ -46,6 +50,7 @@ class Navigate : public Behaviour {
   double start_s_ = 0.0;
   double best_remaining_m_ = 0.0;
   double last_progress_s_ = 0.0;
+  bool rebase_progress_ = false;  // set by a new plan
   double last_replan_s_ = -1e9;
   double last_converged_s_ = 0.0;
   bool final_turn_ = false;

@@ -10,8 +10,9 @@ namespace projtour::navigate {
 namespace {
 
 void check_navigate_params(const Params& p) {
-  for (const char* name : {"tolerance_m", "tolerance_deg", "lookahead_m", "blocked_s", "timeout_s",
-                           "lost_std_m", "lost_unconverged_s", "obstacle_lookahead_m"}) {
+  for (const char* name :
+       {"tolerance_m", "tolerance_deg", "lookahead_m", "blocked_s", "timeout_s", "lost_std_m",
+        "lost_unconverged_s", "obstacle_lookahead_m", "max_detour_m"}) {
     if (!(p.number(name) > 0.0)) {
       throw std::invalid_argument(std::string(name) + ": expected a positive number");
     }
@@ -36,6 +37,9 @@ const projtour_param_desc kNavigateParams[] = {
     {"lost_unconverged_s", "number", "10",
      "lost when localization has not been converged (scans off the map) for this long"},
     {"obstacle_lookahead_m", "number", "1.5", "look for obstacles this far along the path"},
+    {"max_detour_m", "number", "10",
+     "a way round what blocks the path may be this much longer than the path left; past that it "
+     "waits (a person in a corridor moves on sooner than the robot drives round the building)"},
     {"reapproach_margin_px", "number", "40",
      "re-approaching an aligned target: the stand-off is the nearest from which its content fits "
      "the projector image with this many pixels to spare (more than aim's margin: the base stops "

@@ -34,4 +34,21 @@ std::filesystem::path write_corridor_map(const std::filesystem::path& dir) {
   return file;
 }
 
+std::filesystem::path write_loop_map(const std::filesystem::path& dir) {
+  std::filesystem::create_directories(dir);
+  mrpt::maps::COccupancyGridMap2D m(0.0f, 20.0f, 0.0f, 10.0f, 0.05f);
+  m.fill(0.5f);
+  fill(m, 0.9, 0.9, 19.1, 8.1, 0.0f);  // the outer walls
+  fill(m, 1.0, 1.0, 19.0, 8.0, 1.0f);  // the loop's free space...
+  fill(m, 3.0, 3.0, 17.0, 6.0, 0.0f);  // ...round the block between the corridors
+  for (int k = 0; k < 5; ++k) {
+    const double x = 4.0 + 3.0 * k;
+    fill(m, x, 1.0, x + 0.3, 1.3, 0.0f);  // bumps on the outer walls, for the laser
+    fill(m, x + 1.5, 7.7, x + 1.8, 8.0, 0.0f);
+  }
+  const auto file = dir / "loop.yaml";
+  save_occupancy_grid_yaml(m, file);
+  return file;
+}
+
 }  // namespace projtour::nav_test

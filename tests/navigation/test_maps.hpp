@@ -10,4 +10,9 @@ namespace projtour::nav_test {
 // x in [10, 14], y in [6, 10], that nothing leads into.
 std::filesystem::path write_corridor_map(const std::filesystem::path& dir);
 
+// 20 m x 10 m at 0.05 m: a loop of 2 m corridors round a block, x in [3, 17], y in [3, 6]; the
+// lower corridor is y in [1, 3], the upper y in [6, 8], joined at both ends. Closing the lower
+// corridor at x = 9 leaves a way round some 30 m longer.
+std::filesystem::path write_loop_map(const std::filesystem::path& dir);
+
 }  // namespace projtour::nav_test

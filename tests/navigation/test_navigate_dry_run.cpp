@@ -177,6 +177,78 @@ TEST(NavigateOutcomes, ReplansAroundAnObstacleTheMapDoesNotHave) {
   EXPECT_LT(distance_m(rig.truth(), standoff_pose(target)), 0.15);
 }
 
+// The loop map with its lower corridor closed by a box the robot's map lacks, and a goal beyond
+// it: the way round by the upper corridor is some 30 m longer than the path left.
+class ClosedLowerCorridor : public ::testing::Test {
+ protected:
+  ClosedLowerCorridor() : rig_(write_loop_map(temp_dir()).string(), {5.0, 2.0, 0.0}, 3) {
+    rig_.world().add_box(9.0, 1.0, 9.4, 3.0);
+    rig_.idle(0.5);
+    params_ = rig_.defaults("navigate");
+    params_.set("blocked_s", 5.0);
+    params_.set("timeout_s", 400.0);
+  }
+  std::optional<Outcome> drive() { return rig_.run("navigate", params_, &target_, 400.0); }
+  const std::vector<Pose2D>& last_plan() {
+    const NavigateResult* result = rig_.blackboard().find(keys::kNavigate);
+    if (result == nullptr) throw std::runtime_error("no navigate result");
+    return result->planned_path;
+  }
+
+  Rig rig_;
+  Params params_;
+  const TargetSpec target_ = target_for_goal("beyond", {13.0, 2.0, 0.0});
+};
+
+// Regression (issue 14, seed 3's rabbit in the busy world): a new plan round something the laser
+// sees is longer than the one it replaces, and driving it was read as no progress, so the
+// robot was reported blocked half-way round. With the detour allowed, the robot drives it and
+// arrives.
+TEST_F(ClosedLowerCorridor, ADetourLongerThanThePathLeftIsProgressNotBlocked) {
+  params_.set("max_detour_m", 50.0);
+  const auto outcome = drive();
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_EQ(outcome->name, "succeeded") << outcome->message;
+  EXPECT_LT(distance_m(rig_.truth(), standoff_pose(target_)), 0.15);
+  const auto& path = last_plan();
+  EXPECT_TRUE(std::any_of(path.begin(), path.end(), [](const Pose2D& p) { return p.y_m > 6.0; }))
+      << "the last plan goes round by the upper corridor";
+}
+
+// Regression (issue 14, seed 5 in the busy world: 576 s to the first target): a way round longer
+// than max_detour_m past the path left is not taken; the robot waits on its path for what blocks
+// it to move, and is blocked if it never does.
+TEST_F(ClosedLowerCorridor, AWayRoundLongerThanMaxDetourIsNotTakenTheRobotWaits) {
+  ASSERT_EQ(params_.number("max_detour_m"), 10.0);
+  const auto outcome = drive();
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_EQ(outcome->name, "blocked") << outcome->message;
+  EXPECT_LT(rig_.truth().x_m, 9.0);
+  EXPECT_LT(rig_.truth().y_m, 3.0);
+  for (const Pose2D& p : last_plan()) {
+    EXPECT_LT(p.y_m, 3.0) << "the plan it kept goes round the block at " << p.x_m;
+  }
+}
+
+// Regression (issue 14, seed 2's pillar in the busy world): something already within the
+// clearance of the robot (a person who stepped up beside it) lay within the clearance of every
+// path, since every path starts where the robot stands, and the robot waited beside it until
+// blocked. A path that does not lead nearer to it is free.
+TEST(NavigateOutcomes, SomethingBesideTheRobotDoesNotHoldItWhenThePathLeadsAway) {
+  const auto map = write_corridor_map(temp_dir());
+  Rig rig(map.string(), {3.0, 2.0, 0.0}, 4);
+  // 0.40 m from the robot's centre, abeam: inside the 0.45 m navigate keeps from unmapped things.
+  rig.world().add_box(2.95, 2.4, 3.05, 2.5);
+  rig.idle(0.5);
+  Params params = rig.defaults("navigate");
+  params.set("blocked_s", 5.0);
+  const TargetSpec target = target_for_goal("ahead", {8.0, 2.0, 0.0});
+  const auto outcome = rig.run("navigate", params, &target, 60.0);
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_EQ(outcome->name, "succeeded") << outcome->message;
+  EXPECT_LT(distance_m(rig.truth(), standoff_pose(target)), 0.15);
+}
+
 TEST(NavigateOutcomes, TimeoutWhenTheGoalIsTooFarForTheTime) {
   const auto map = write_corridor_map(temp_dir());
   Rig rig(map.string(), {3.0, 2.0, 0.0}, 3);

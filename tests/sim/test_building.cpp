@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 #include <mrpt/maps/COccupancyGridMap2D.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <opencv2/core.hpp>
 
 #include "projtour/geometry.hpp"
@@ -183,6 +185,35 @@ TEST(Building, RandomWalkersAreTheSameForOneSeedAndStayOffTheWalls) {
     EXPECT_LT(a[i].y(), 2.5 - 0.25);
   }
   EXPECT_NE(a, c);
+}
+
+// Regression (issue 14, seed 4's sign-south in the busy world): walkers kept off the sign's posts
+// but walked through its board, and a person standing inside a target is nearer than its
+// surface by less than the beam guard's margin, so they were lit. Walkers milling about the
+// sign's stand-off never overlap the board.
+TEST(Building, RandomWalkersNeverWalkThroughATarget) {
+  Rig rig(4);
+  rig.world.people.walkers = 6;
+  SimWorld& w = rig.make();
+  // The sign's board in the map: x in [2.99, 3.01], y in [-0.2, 0.2].
+  const auto distance_to_board_m = [](const Eigen::Vector2d& p) {
+    const double dx = std::max(std::abs(p.x() - 3.0) - 0.01, 0.0);
+    const double dy = std::max(std::abs(p.y()) - 0.2, 0.0);
+    return std::hypot(dx, dy);
+  };
+  double nearest_m = std::numeric_limits<double>::infinity();
+  int near_board_ticks = 0;
+  for (double t_s = 0.1; t_s <= 300.0; t_s += 0.1) {
+    w.advance(t_s);
+    for (const Eigen::Vector2d& p : w.people_positions()) {
+      const double d_m = distance_to_board_m(p);
+      nearest_m = std::min(nearest_m, d_m);
+      near_board_ticks += d_m < 1.0;
+    }
+  }
+  EXPECT_GT(near_board_ticks, 100) << "the walkers mill about the sign";
+  // Less one grid cell (0.05 m): where people may stand is rasterized on the map's grid.
+  EXPECT_GE(nearest_m, rig.world.people.radius_m - 0.05);
 }
 
 TEST(Building, LightOnAPersonIsCountedOnlyWhileLit) {

@@ -284,23 +284,57 @@ std::vector<WorldObjectSpec> place_clutter(const mrpt::maps::COccupancyGridMap2D
   return out;
 }
 
+namespace {
+
+// A target's extent in its own horizontal axes (its yaw in the map).
+struct TargetExtent {
+  double yaw_rad = 0.0;
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(kInf), hi = -lo;  // in the yawed frame
+  double z_min_m = kInf, z_max_m = -kInf;
+};
+
+TargetExtent target_extent(const TriangleMesh& mesh, const Eigen::Isometry3d& T_map_model) {
+  TargetExtent e;
+  const Eigen::Vector3d x_map = T_map_model.linear().col(0);
+  e.yaw_rad = std::atan2(x_map.y(), x_map.x());
+  const Eigen::Rotation2Dd R_inv(-e.yaw_rad);
+  for (const auto& v : mesh.vertices) {
+    const Eigen::Vector3d p = T_map_model * v.cast<double>();
+    const Eigen::Vector2d q = R_inv * p.head<2>();
+    e.lo = e.lo.cwiseMin(q);
+    e.hi = e.hi.cwiseMax(q);
+    e.z_min_m = std::min(e.z_min_m, p.z());
+    e.z_max_m = std::max(e.z_max_m, p.z());
+  }
+  return e;
+}
+
+}  // namespace
+
+std::optional<Footprint> target_footprint(const TriangleMesh& mesh,
+                                          const Eigen::Isometry3d& T_map_model,
+                                          const std::string& name) {
+  if (mesh.vertices.empty()) return std::nullopt;
+  const TargetExtent e = target_extent(mesh, T_map_model);
+  Footprint f;
+  f.shape = Footprint::Shape::rect;
+  f.yaw_rad = e.yaw_rad;
+  f.centre_m = Eigen::Rotation2Dd(e.yaw_rad) * (0.5 * (e.lo + e.hi));
+  f.half_m = 0.5 * (e.hi - e.lo);
+  f.z_min_m = e.z_min_m;
+  f.z_max_m = e.z_max_m;
+  f.name = name;
+  return f;
+}
+
 std::vector<WorldObjectSpec> target_supports(const TriangleMesh& mesh,
                                              const Eigen::Isometry3d& T_map_model) {
   std::vector<WorldObjectSpec> out;
   if (mesh.vertices.empty()) return out;
-  // Extents in the target's own horizontal axes (its yaw in the map).
-  const Eigen::Vector3d x_map = T_map_model.linear().col(0);
-  const double yaw = std::atan2(x_map.y(), x_map.x());
-  const Eigen::Rotation2Dd R_inv(-yaw);
-  Eigen::Vector2d lo = Eigen::Vector2d::Constant(kInf), hi = -lo;
-  double z_min = kInf;
-  for (const auto& v : mesh.vertices) {
-    const Eigen::Vector3d p = T_map_model * v.cast<double>();
-    const Eigen::Vector2d q = R_inv * p.head<2>();
-    lo = lo.cwiseMin(q);
-    hi = hi.cwiseMax(q);
-    z_min = std::min(z_min, p.z());
-  }
+  const TargetExtent e = target_extent(mesh, T_map_model);
+  const double yaw = e.yaw_rad;
+  const Eigen::Vector2d lo = e.lo, hi = e.hi;
+  const double z_min = e.z_min_m;
   if (z_min < 0.05) return out;
   const Eigen::Rotation2Dd R(yaw);
   const Eigen::Vector2d size = hi - lo;

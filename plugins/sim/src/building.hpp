@@ -5,6 +5,7 @@
 // of it; the robot's map shows none of it.
 #include <Eigen/Geometry>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -69,6 +70,11 @@ std::vector<WorldObjectSpec> place_clutter(const mrpt::maps::COccupancyGridMap2D
 
 // What a target stands on, from its true mesh in the map frame: nothing when it is within 5 cm
 // of the floor; a plinth under a solid object; two thin posts under a flat one (a sign).
+// What a target itself takes up on the floor, for people to walk round (a sign on posts is
+// wider than its posts).
+std::optional<Footprint> target_footprint(const TriangleMesh& mesh,
+                                          const Eigen::Isometry3d& T_map_model,
+                                          const std::string& name);
 std::vector<WorldObjectSpec> target_supports(const TriangleMesh& mesh,
                                              const Eigen::Isometry3d& T_map_model);
 

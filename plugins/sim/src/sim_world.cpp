@@ -1053,6 +1053,13 @@ SimWorld::SimWorld(const RunContext& run) : impl_(std::make_unique<Impl>()) {
   if (w.world.people.walkers > 0 || !w.world.people.list.empty() || people_faults) {
     std::vector<Footprint> blocking = w.footprints;
     blocking.insert(blocking.end(), w.glass.begin(), w.glass.end());
+    // Nobody walks through a target either (the beam guard could not tell them from it).
+    for (const Impl::Object& o : w.objects) {
+      if (o.missing) continue;
+      if (auto f = target_footprint(*o.mesh, o.T_map_model, "target " + o.model_key)) {
+        blocking.push_back(*f);
+      }
+    }
     std::vector<Eigen::Vector2d> homes;
     for (const Impl::Target& t : w.targets) homes.emplace_back(t.standoff.x_m, t.standoff.y_m);
     std::mt19937_64 people = stream(w.seed, Stream::people);
