@@ -6,6 +6,8 @@
 #include <unistd.h>
 
 #include <fstream>
+#include <string>
+#include <vector>
 
 #include "fixture_support.hpp"
 #include "projtour/params_reader.hpp"
@@ -17,6 +19,7 @@ using projtour::Family;
 using projtour::KindInfo;
 using projtour::ParamType;
 using projtour::PluginError;
+using projtour::PluginLoadOptions;
 using projtour::PluginRegistry;
 using projtour::testing::fixture;
 using projtour::testing::TempDir;
@@ -96,22 +99,88 @@ TEST(PluginLoader, LoadingTheSameFileTwiceIsHarmless) {
   EXPECT_EQ(registry.kinds().size(), 3u);
 }
 
-TEST(PluginLoader, MissingFileIsNamed) {
+TEST(PluginLoader, MissingFileIsNamedWithErrno) {
   PluginRegistry registry;
   const std::string error = load_error(registry, "/nonexistent/libnothing.so");
-  EXPECT_EQ(error, "/nonexistent/libnothing.so: no such file");
+  EXPECT_EQ(error, "/nonexistent/libnothing.so: cannot open: No such file or directory");
 }
 
-TEST(PluginLoader, UnloadableFileCarriesDlerror) {
+// exists() reads a loop as a missing file; the loader must say what really stopped it.
+TEST(PluginLoader, SymlinkLoopIsReportedAsEloopNotAsMissing) {
+  TempDir dir;
+  const fs::path file = dir / "libloop.so";
+  fs::create_symlink(dir / "libloop_back.so", file);
+  fs::create_symlink(file, dir / "libloop_back.so");
+  PluginRegistry registry;
+  EXPECT_EQ(load_error(registry, file),
+            file.string() + ": cannot open: Too many levels of symbolic links");
+  EXPECT_EQ(registry.load_directories({dir.path()}),
+            (std::vector<std::string>{
+                (dir / "libloop.so").string() + ": cannot open: Too many levels of symbolic links",
+                (dir / "libloop_back.so").string() +
+                    ": cannot open: Too many levels of symbolic links"}));
+}
+
+TEST(PluginLoader, FileThatIsNotElfIsRefusedBeforeDlopen) {
   TempDir dir;
   const fs::path file = dir.path() / "libgarbage.so";
-  // Longer than an ELF header, so the dynamic linker reads it and judges the contents.
   std::ofstream(file) << std::string(512, 'x');
+  PluginRegistry registry;
+  EXPECT_EQ(load_error(registry, file),
+            file.string() + ": not an ELF shared object (no ELF header)");
+  EXPECT_FALSE(projtour::test::mapped_in_this_process(file));
+}
+
+TEST(PluginLoader, ElfThatIsNotASharedObjectIsRefused) {
+  TempDir dir;
+  const fs::path file = dir.path() / "libobject.so";
+  // A relocatable object's header: ELF, 64-bit, little-endian, e_type 1.
+  std::string header =
+      "\x7f"
+      "ELF\x02\x01\x01";
+  header.resize(16, '\0');
+  header += std::string("\x01\x00", 2);
+  header.resize(64, '\0');
+  std::ofstream(file, std::ios::binary) << header;
+  PluginRegistry registry;
+  EXPECT_EQ(load_error(registry, file),
+            file.string() + ": not an ELF shared object (ELF type 1, a shared object is 3)");
+}
+
+// glibc maps a truncated library's segments past the end of the file and touches them: the
+// host would die of SIGBUS inside dlopen.
+TEST(PluginLoader, TruncatedSharedObjectIsRefusedBeforeDlopen) {
+  TempDir dir;
+  const fs::path file = dir.path() / "libtruncated.so";
+  std::ifstream good(fixture("pt_fixture_good"), std::ios::binary);
+  std::string head(4096, '\0');
+  good.read(head.data(), static_cast<std::streamsize>(head.size()));
+  std::ofstream(file, std::ios::binary) << head;
+  PluginRegistry registry;
+  const std::string error = load_error(registry, file);
+  EXPECT_EQ(error.rfind(file.string() + ": truncated ELF shared object (segment ", 0), 0u) << error;
+  EXPECT_NE(error.find(", the file has 4096)"), std::string::npos) << error;
+  EXPECT_FALSE(projtour::test::mapped_in_this_process(file));
+}
+
+TEST(PluginLoader, UnloadableSharedObjectCarriesDlerror) {
+  TempDir dir;
+  const fs::path file = dir.path() / "libwrongclass.so";
+  // A shared object's header of the other word size: only the dynamic linker judges that.
+  std::string header =
+      "\x7f"
+      "ELF";
+  header += sizeof(void*) == 8 ? '\x01' : '\x02';
+  header += "\x01\x01";
+  header.resize(16, '\0');
+  header += std::string("\x03\x00", 2);
+  header.resize(512, '\0');
+  std::ofstream(file, std::ios::binary) << header;
   PluginRegistry registry;
   const std::string error = load_error(registry, file);
   EXPECT_EQ(error.rfind(file.string() + ": cannot load: ", 0), 0u) << error;
   // dlerror's own words follow: the reason the dynamic linker refused it.
-  EXPECT_NE(error.find("invalid ELF header"), std::string::npos) << error;
+  EXPECT_NE(error.find("wrong ELF class"), std::string::npos) << error;
 }
 
 TEST(PluginLoader, SharedObjectWithoutEntryPointIsNotAPlugin) {
@@ -185,11 +254,12 @@ TEST(PluginLoader, LoadDirectoriesCollectsEveryFailureInFileOrder) {
   std::vector<std::string> failed_files;
   for (const auto& f : failures) failed_files.push_back(f.substr(0, f.find(".so: ") + 3));
   const std::vector<std::string> expected = {
-      dir + "/libpt_fixture_abi999.so",      dir + "/libpt_fixture_dup_b.so",
-      dir + "/libpt_fixture_malformed_1.so", dir + "/libpt_fixture_malformed_2.so",
-      dir + "/libpt_fixture_malformed_3.so", dir + "/libpt_fixture_malformed_4.so",
-      dir + "/libpt_fixture_malformed_5.so", dir + "/libpt_fixture_malformed_6.so",
-      dir + "/libpt_fixture_malformed_7.so", dir + "/libpt_fixture_not_plugin.so"};
+      dir + "/libpt_fixture_abi999.so",      dir + "/libpt_fixture_constructor.so",
+      dir + "/libpt_fixture_dup_b.so",       dir + "/libpt_fixture_malformed_1.so",
+      dir + "/libpt_fixture_malformed_2.so", dir + "/libpt_fixture_malformed_3.so",
+      dir + "/libpt_fixture_malformed_4.so", dir + "/libpt_fixture_malformed_5.so",
+      dir + "/libpt_fixture_malformed_6.so", dir + "/libpt_fixture_malformed_7.so",
+      dir + "/libpt_fixture_not_plugin.so"};
   EXPECT_EQ(failed_files, expected);
 
   std::vector<std::string> names;

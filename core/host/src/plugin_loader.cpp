@@ -1,12 +1,22 @@
 #include "projtour/plugin_loader.hpp"
 
 #include <dlfcn.h>
+#include <elf.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
+#include <map>
 #include <set>
 #include <system_error>
+#include <type_traits>
+#include <utility>
 
 #include "projtour/diagnostics.hpp"
 #include "projtour/yaml_reader.hpp"
@@ -60,7 +70,7 @@ bool KindInfo::declares_outcome(const std::string& outcome) const {
   return std::find(outcomes.begin(), outcomes.end(), outcome) != outcomes.end();
 }
 
-PluginRegistry::PluginRegistry() = default;
+PluginRegistry::PluginRegistry(PluginLoadOptions options) : options_(options) {}
 PluginRegistry::~PluginRegistry() = default;
 
 namespace {
@@ -79,6 +89,122 @@ std::string in_quotes(const std::string& text) {
 std::string last_dlerror(const char* fallback) {
   const char* message = dlerror();
   return message != nullptr ? message : fallback;
+}
+
+std::string errno_text(int error) {
+  return std::error_code(error, std::generic_category()).message();
+}
+
+std::string mode_text(mode_t mode) {
+  std::array<char, 8> text{};
+  std::snprintf(text.data(), text.size(), "%04o", static_cast<unsigned>(mode & 07777));
+  return text.data();
+}
+
+constexpr const char* kTrustRule =
+    "; a plugin path must be writable by its owner and root only "
+    "(--allow-writable-plugin-path loads it anyway)";
+
+// Why someone other than root and this process's user could change what `st` describes; ""
+// when nobody could. `sticky_is_enough`: for a directory above a plugin path, a sticky bit
+// (as on /tmp) keeps others from renaming or replacing the entries they do not own.
+std::string writable_by_others(const struct stat& st, bool sticky_is_enough) {
+  const uid_t me = ::geteuid();
+  if (st.st_uid != 0 && st.st_uid != me) {
+    return "owned by uid " + std::to_string(st.st_uid) + " (mode " + mode_text(st.st_mode) +
+           "), neither root nor this user (uid " + std::to_string(me) + ")";
+  }
+  if (sticky_is_enough && (st.st_mode & S_ISVTX) != 0) return "";
+  if ((st.st_mode & S_IWOTH) != 0) return "world-writable (mode " + mode_text(st.st_mode) + ")";
+  if ((st.st_mode & S_IWGRP) != 0) return "group-writable (mode " + mode_text(st.st_mode) + ")";
+  return "";
+}
+
+// "" when only root and this user can write the directory `dir` (canonical) and every
+// directory above it; else why not, to follow the directory's name. The directories above
+// count because whoever may rename one of them may put another tree in its place after the
+// check and before dlopen.
+std::string untrusted_directory(const fs::path& dir) {
+  struct stat st {};
+  if (::stat(dir.c_str(), &st) != 0) return "cannot be checked: " + errno_text(errno);
+  if (std::string why = writable_by_others(st, false); !why.empty()) return "is " + why;
+  for (fs::path up = dir; up.has_relative_path();) {
+    up = up.parent_path();
+    if (::stat(up.c_str(), &st) != 0) {
+      return "cannot be checked: " + up.string() + ": " + errno_text(errno);
+    }
+    if (std::string why = writable_by_others(st, true); !why.empty()) {
+      return "is under " + up.string() + ", which is " + why;
+    }
+  }
+  return "";
+}
+
+// Reads exactly `size` bytes at `offset`; false on a short read (errno 0) or an error.
+bool read_at(int fd, void* out, std::size_t size, off_t offset) {
+  errno = 0;
+  return ::pread(fd, out, size, offset) == static_cast<ssize_t>(size);
+}
+
+// "" when `file` opens and is an ELF shared object whose loadable segments lie within it; else
+// why not (the real errno when it cannot be opened or read). Checked here rather than left to
+// dlopen: nothing of a file that is not one gets mapped, the reason is plain, and a truncated
+// library, which glibc maps past its end and then touches, would kill the process with SIGBUS.
+std::string not_a_shared_object(const fs::path& file) {
+  // O_NOFOLLOW: `file` is canonical, so a symlink found now was planted after the check.
+  const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
+  if (fd < 0) return "cannot open: " + errno_text(errno);
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) return "cannot open: " + errno_text(errno);
+  std::array<unsigned char, EI_NIDENT + 2> ident{};  // e_ident, then e_type
+  if (!read_at(fd, ident.data(), ident.size(), 0)) {
+    if (errno != 0) return "cannot read: " + errno_text(errno);
+    return "not an ELF shared object (no ELF header)";
+  }
+  if (std::memcmp(ident.data(), ELFMAG, SELFMAG) != 0) {
+    return "not an ELF shared object (no ELF header)";
+  }
+  const unsigned low = ident[EI_NIDENT];
+  const unsigned high = ident[EI_NIDENT + 1];
+  const unsigned type = ident[EI_DATA] == ELFDATA2MSB ? (low << 8U) | high : (high << 8U) | low;
+  if (type != ET_DYN) {
+    return "not an ELF shared object (ELF type " + std::to_string(type) + ", a shared object is " +
+           std::to_string(ET_DYN) + ")";
+  }
+  // Another class or byte order cannot be loaded here: dlopen's own words say which.
+  constexpr unsigned char kNativeClass = sizeof(void*) == 8 ? ELFCLASS64 : ELFCLASS32;
+  constexpr unsigned char kNativeData =
+      __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ ? ELFDATA2LSB : ELFDATA2MSB;
+  if (ident[EI_CLASS] != kNativeClass || ident[EI_DATA] != kNativeData) return "";
+  using Ehdr = std::conditional_t<sizeof(void*) == 8, Elf64_Ehdr, Elf32_Ehdr>;
+  using Phdr = std::conditional_t<sizeof(void*) == 8, Elf64_Phdr, Elf32_Phdr>;
+  const auto size = static_cast<std::uint64_t>(st.st_size);
+  Ehdr header{};
+  if (!read_at(fd, &header, sizeof header, 0))
+    return "truncated ELF shared object (no full header)";
+  if (header.e_phentsize != sizeof(Phdr)) {
+    return "not an ELF shared object (program header entries of " +
+           std::to_string(header.e_phentsize) + " bytes)";
+  }
+  for (unsigned i = 0; i < header.e_phnum; ++i) {
+    Phdr segment{};
+    const std::uint64_t at = header.e_phoff + std::uint64_t{i} * sizeof(Phdr);
+    if (at + sizeof(Phdr) > size ||
+        !read_at(fd, &segment, sizeof segment, static_cast<off_t>(at))) {
+      return "truncated ELF shared object (program header " + std::to_string(i) +
+             " past the end of the file, " + std::to_string(size) + " bytes)";
+    }
+    const std::uint64_t end = std::uint64_t{segment.p_offset} + segment.p_filesz;
+    if (segment.p_type == PT_LOAD && end > size) {
+      return "truncated ELF shared object (segment " + std::to_string(i) + " ends at byte " +
+             std::to_string(end) + ", the file has " + std::to_string(size) + ")";
+    }
+  }
+  return "";
 }
 
 // The directory of the shared object this code is in: an installed host that was moved (or
@@ -327,11 +453,30 @@ std::vector<fs::path> PluginRegistry::search_path(const std::vector<fs::path>& c
 
 void PluginRegistry::load_library(const fs::path& file) {
   std::error_code ec;
-  if (!fs::exists(file, ec)) fail(file, "no such file");
-  if (!fs::is_regular_file(file, ec)) fail(file, "not a regular file");
+  // Resolved first, not tested with exists(): that reads a symlink loop (ELOOP) as a missing
+  // file. Everything below looks at the real file, the one dlopen will map.
   const fs::path canonical = fs::canonical(file, ec);
-  if (ec) fail(file, "cannot resolve path: " + ec.message());
+  if (ec) fail(file, "cannot open: " + ec.message());
   if (libraries_.count(canonical.string()) != 0) return;  // already loaded: nothing new
+
+  struct stat st {};
+  if (::stat(canonical.c_str(), &st) != 0) fail(file, "cannot open: " + errno_text(errno));
+  if (!S_ISREG(st.st_mode)) fail(file, "not a regular file");
+  // dlopen runs the library's constructors: whatever it is must be known to come from a
+  // trusted writer before then.
+  if (!options_.allow_writable_paths) {
+    const bool named_as_is = fs::absolute(file).lexically_normal() == canonical;
+    const std::string subject =
+        named_as_is ? "plugin library" : "plugin library " + canonical.string();
+    if (const std::string why = writable_by_others(st, false); !why.empty()) {
+      fail(file, subject + " is " + why + kTrustRule);
+    }
+    const fs::path dir = canonical.parent_path();
+    if (const std::string why = untrusted_directory(dir); !why.empty()) {
+      fail(file, "its directory " + dir.string() + " " + why + kTrustRule);
+    }
+  }
+  if (const std::string why = not_a_shared_object(canonical); !why.empty()) fail(file, why);
 
   dlerror();
   // RTLD_NODELETE: values a plugin leaves behind (std::any on the blackboard, exception objects,
@@ -388,15 +533,39 @@ void PluginRegistry::load_library(const fs::path& file) {
 }
 
 std::vector<std::string> PluginRegistry::load_directories(const std::vector<fs::path>& dirs) {
-  std::vector<std::string> failures;
-  // Like PATH, an earlier directory shadows a later one's file of the same name, so a build
-  // tree and an installed copy of the same plugin do not collide.
-  std::set<std::string> seen_names;
+  // Like PATH, a file name loaded from an earlier directory shadows the same name in later ones,
+  // so a build tree and an installed copy of the same plugin do not collide. A file that failed
+  // shadows nothing: a broken copy must not hide a good one further down.
+  std::set<std::string> loaded_names;
   for (const auto& [path, library] : libraries_)
-    seen_names.insert(fs::path(path).filename().string());
+    loaded_names.insert(fs::path(path).filename().string());
+  // Every problem in path order, with the file name it is about ("" for a directory's).
+  std::vector<std::pair<std::string, std::string>> problems;
+  std::map<std::string, fs::path> loaded_from;  // file name -> the file that loaded
   for (const auto& dir : dirs) {
+    if (dir.empty()) continue;
+    struct stat st {};
+    if (::stat(dir.c_str(), &st) != 0) {
+      const int error = errno;
+      // A missing entry is skipped like a missing PATH entry; anything else is worth saying.
+      if (error == ENOENT || error == ENOTDIR) continue;
+      problems.emplace_back("", dir.string() + ": cannot open directory: " + errno_text(error));
+      continue;
+    }
+    if (!S_ISDIR(st.st_mode)) {
+      problems.emplace_back("", dir.string() + ": not a directory");
+      continue;
+    }
     std::error_code ec;
-    if (dir.empty() || !fs::is_directory(dir, ec)) continue;
+    if (!options_.allow_writable_paths) {
+      // Whoever may write the directory may add a lib*.so to it: refused before it is listed.
+      const fs::path real = fs::canonical(dir, ec);
+      const std::string why = ec ? "cannot be checked: " + ec.message() : untrusted_directory(real);
+      if (!why.empty()) {
+        problems.emplace_back("", dir.string() + ": plugin directory " + why + kTrustRule);
+        continue;
+      }
+    }
     std::vector<fs::path> files;
     for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
       const std::string name = it->path().filename().string();
@@ -406,17 +575,30 @@ std::vector<std::string> PluginRegistry::load_directories(const std::vector<fs::
       }
     }
     if (ec) {
-      failures.push_back(dir.string() + ": cannot list directory: " + ec.message());
+      problems.emplace_back("", dir.string() + ": cannot list directory: " + ec.message());
       continue;
     }
     std::sort(files.begin(), files.end());
     for (const auto& file : files) {
-      if (!seen_names.insert(file.filename().string()).second) continue;
+      const std::string name = file.filename().string();
+      if (loaded_names.count(name) != 0) continue;
       try {
         load_library(file);
+        loaded_names.insert(name);
+        loaded_from.emplace(name, file);
       } catch (const PluginError& e) {
-        failures.emplace_back(e.what());
+        problems.emplace_back(name, e.what());
       }
+    }
+  }
+  std::vector<std::string> failures;
+  for (auto& [name, message] : problems) {
+    const auto good = loaded_from.find(name);
+    if (good == loaded_from.end()) {
+      failures.push_back(std::move(message));
+    } else {
+      warnings_.push_back(message + " (" + good->second.string() +
+                          " further down the path was loaded instead)");
     }
   }
   return failures;

@@ -23,6 +23,13 @@ class PluginError : public std::runtime_error {
 
 class PluginLibrary;  // an open dlopen handle
 
+struct PluginLoadOptions {
+  // Loads from directories and libraries that others than their owner and root may write
+  // (group- or world-writable, or owned by another user): --allow-writable-plugin-path. Off,
+  // such a path is refused before anything in it is opened with dlopen.
+  bool allow_writable_paths = false;
+};
+
 enum class Family { behaviour, driver, service };
 const char* to_string(Family family);
 
@@ -55,7 +62,7 @@ struct KindInfo {
 
 class PluginRegistry {
  public:
-  PluginRegistry();
+  explicit PluginRegistry(PluginLoadOptions options = {});
   ~PluginRegistry();
   PluginRegistry(const PluginRegistry&) = delete;
   PluginRegistry& operator=(const PluginRegistry&) = delete;
@@ -67,15 +74,22 @@ class PluginRegistry {
   static std::vector<std::filesystem::path> search_path(
       const std::vector<std::filesystem::path>& cli_paths);
 
-  // Loads one shared object. Throws PluginError: file missing, not loadable (dlerror), no entry
-  // point (not a plugin), ABI version mismatch, a malformed descriptor, or a kind another
-  // plugin already provides (naming both files).
+  // Loads one shared object. Throws PluginError: the path cannot be resolved or opened (with
+  // errno's text: a symlink loop is ELOOP), not a regular file, not an ELF shared object, a
+  // file or a directory on its real path that others may write (unless allowed), not loadable
+  // (dlerror), no entry point (not a plugin), ABI version mismatch, a malformed descriptor, or
+  // a kind another plugin already provides (naming both files). Nothing of the file runs (no
+  // constructor) before the checks of the path and the ELF header have passed.
   void load_library(const std::filesystem::path& file);
-  // Loads every lib*.so in each directory (missing directories are skipped). Files that fail
-  // are returned as messages rather than thrown, so one bad file does not hide the rest. Like
-  // PATH, a file name found in an earlier directory shadows the same name in later ones (a
-  // build tree and an installed copy of one plugin do not collide).
+  // Loads every lib*.so in each directory (missing directories are skipped; one that others may
+  // write is refused whole). Problems are returned as messages rather than thrown, so one bad
+  // file does not hide the rest. Like PATH, a file name loaded from an earlier directory
+  // shadows the same name in later ones (a build tree and an installed copy of one plugin do
+  // not collide); a file that failed does not: the next directory's file of that name is
+  // tried, and when it loads the failure is moved to warnings() instead.
   std::vector<std::string> load_directories(const std::vector<std::filesystem::path>& dirs);
+  // Files that failed but whose name a later directory provided: harmless, worth a warning.
+  const std::vector<std::string>& warnings() const { return warnings_; }
 
   const KindInfo* find(const std::string& kind) const;
   // Throws PluginError with "did you mean" when unknown.
@@ -95,6 +109,8 @@ class PluginRegistry {
   std::string validate_params(const std::string& kind, const Params& params) const;
 
  private:
+  PluginLoadOptions options_;
+  std::vector<std::string> warnings_;
   std::map<std::string, KindInfo> kinds_;
   std::map<std::string, std::shared_ptr<PluginLibrary>> libraries_;  // by canonical path
 };
