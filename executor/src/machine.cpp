@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <functional>
+#include <map>
 #include <set>
 
 #include "projtour/params_reader.hpp"
@@ -61,6 +62,12 @@ std::vector<const StateSpec*> Machine::leaves() const {
 
 namespace {
 
+// Bounds no real tour comes near (the default machine: 12 states, 2 levels, 3 retries), so a
+// machine beyond them is a mistake or an attack (YAML aliases can multiply states), not a tour.
+constexpr int kMaxRetries = 100;
+constexpr std::size_t kMaxStates = 1000;
+constexpr int kMaxNesting = 16;
+
 SourceMark key_mark(const YAML::Node& key, const YamlField& parent) {
   const YAML::Mark m = key.Mark();
   if (m.is_null() || m.line < 0) return parent.mark();
@@ -72,6 +79,248 @@ std::string join(const std::vector<std::string>& words) {
   for (const auto& w : words) out += (out.empty() ? "" : ", ") + w;
   return out;
 }
+
+// yaml-cpp keeps the first of two equal keys and drops the second without a word; every map
+// of the machine (params included) is checked here. A node reached twice through an alias is
+// walked once, by its mark, so nested aliases cannot make the walk exponential.
+void check_unique_keys_deep(const YAML::Node& node, const std::string& path,
+                            const std::string& file, Diagnostics& diag,
+                            std::set<std::pair<int, int>>& walked) {
+  if (!node.IsMap() && !node.IsSequence()) return;
+  const YAML::Mark m = node.Mark();
+  if (!m.is_null() && !walked.insert({m.line, m.column}).second) return;
+  if (node.IsSequence()) {
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      check_unique_keys_deep(node[i], path + "[" + std::to_string(i) + "]", file, diag, walked);
+    }
+    return;
+  }
+  std::map<std::string, int> first_line;
+  for (const auto& kv : node) {
+    if (!kv.first.IsScalar()) continue;
+    const std::string& key = kv.first.Scalar();
+    const std::string child = path.empty() ? key : path + "." + key;
+    const YAML::Mark k = kv.first.Mark();
+    const auto [it, inserted] = first_line.emplace(key, k.line + 1);
+    if (!inserted) {
+      diag.error(
+          SourceMark{file, k.line + 1, k.column + 1}, child,
+          "duplicate key \"" + key + "\" (first at line " + std::to_string(it->second) + ")");
+    }
+    check_unique_keys_deep(kv.second, child, file, diag, walked);
+  }
+}
+
+// The proof that a machine ends: states and composites' completions are the nodes of a graph
+// whose edges are the transitions. Leaving a visit (skip_target, defer_target, a for_each body
+// completing), abort and the root completing end the walk; a visit ends at most twice per
+// target (a deferred target is skipped the next time). A retry list is bounded by the
+// retries of the states it names, which only a new visit restores, and its exhaustion skips
+// the target or aborts. So the machine ends exactly when no cycle is made of plain
+// transitions alone; and it must not count on `failed` to leave (a behaviour that keeps
+// succeeding must lead somewhere too).
+class TerminationCheck {
+ public:
+  TerminationCheck(const StateSpec& root, Diagnostics& diag) : diag_(diag) {
+    add_nodes(root);
+    for (std::size_t n = 0; n < nodes_.size(); ++n) add_edges(n);
+  }
+
+  void run() {
+    const std::vector<int> component = components();
+    std::vector<bool> can_leave = leaves_without_failed();
+    // One report per cycle, at a transition of it (entering a composite is not written down).
+    std::set<int> reported;
+    for (const bool written : {true, false}) {
+      for (std::size_t n = 0; n < nodes_.size(); ++n) {
+        for (const Edge& e : nodes_[n].edges) {
+          if (e.to < 0 || e.retry || (written && e.transition == nullptr)) continue;
+          const int c = component[n];
+          if (component[e.to] != c || !reported.insert(c).second) continue;
+          report_cycle(static_cast<int>(n), e, component, can_leave);
+        }
+      }
+    }
+    for (std::size_t n = 0; n < nodes_.size(); ++n) {
+      const Node& node = nodes_[n];
+      if (can_leave[n] || node.completion) continue;
+      bool dead_end = true;
+      for (const Edge& e : node.edges) dead_end = dead_end && e.failed;
+      if (!dead_end) continue;  // it leads into a dead end or a cycle, reported there
+      diag_.error(node.state->mark, node.state->field_path,
+                  "every way out of \"" + name(static_cast<int>(n)) +
+                      "\" is \"failed\": it needs a transition on another outcome that leads "
+                      "to finish, skip_target, defer_target or abort");
+    }
+  }
+
+ private:
+  // to < 0: the edge ends the walk (a visit left, abort, the tour done).
+  struct Edge {
+    int to;
+    const TransitionSpec* transition;  // null for entering a composite or a final state
+    bool retry;
+    bool failed;
+  };
+  struct Node {
+    const StateSpec* state;
+    bool completion;  // the composite `state` completing, not entering it
+    std::vector<Edge> edges;
+  };
+
+  void add_nodes(const StateSpec& s) {
+    enter_[&s] = static_cast<int>(nodes_.size());
+    nodes_.push_back({&s, false, {}});
+    if (!s.is_composite()) return;
+    complete_[&s] = static_cast<int>(nodes_.size());
+    nodes_.push_back({&s, true, {}});
+    for (const auto& c : s.children) add_nodes(*c);
+  }
+
+  // Where completing `composite` leads: its completion node, or the end of a visit or tour.
+  int completion_of(const StateSpec& composite) const {
+    if (composite.for_each_target || composite.parent == nullptr) return -1;
+    return complete_.at(&composite);
+  }
+
+  void add_edges(std::size_t n) {
+    Node& node = nodes_[n];
+    const StateSpec& s = *node.state;
+    if (s.type == StateType::final_state) {
+      node.edges.push_back({completion_of(*s.parent), nullptr, false, false});
+      return;
+    }
+    if (s.is_composite() && !node.completion) {
+      if (const StateSpec* initial = s.child(s.initial)) {
+        node.edges.push_back({enter_.at(initial), nullptr, false, false});
+      }
+      // A for_each completes once no target is left.
+      if (s.for_each_target) node.edges.push_back({complete_.at(&s), nullptr, false, false});
+      return;
+    }
+    if (s.parent == nullptr) return;  // the root completing ends the tour
+    for (const auto& t : s.on) {
+      const bool failed = t.outcome == kOutcomeFailed;
+      for (const auto& target : t.targets) {
+        int to = -1;
+        if (target == kFinish) {
+          to = completion_of(*s.parent);
+        } else if (const StateSpec* sibling = s.parent->child(target)) {
+          to = enter_.at(sibling);
+        }
+        node.edges.push_back({to, &t, t.retry, failed});
+      }
+    }
+  }
+
+  // Strongly connected components of the plain edges (Tarjan's, iteratively: a machine may
+  // hold up to kMaxStates states). A component with an edge inside it is a plain cycle.
+  std::vector<int> components() const {
+    const int count = static_cast<int>(nodes_.size());
+    std::vector<int> index(count, -1), low(count, 0), component(count, -1);
+    std::vector<bool> on_stack(count, false);
+    std::vector<int> stack;
+    int next_index = 0, next_component = 0;
+    for (int start = 0; start < count; ++start) {
+      if (index[start] >= 0) continue;
+      std::vector<std::pair<int, std::size_t>> work{{start, 0}};
+      index[start] = low[start] = next_index++;
+      stack.push_back(start);
+      on_stack[start] = true;
+      while (!work.empty()) {
+        auto& [v, edge] = work.back();
+        const auto& edges = nodes_[v].edges;
+        if (edge < edges.size()) {
+          const Edge& e = edges[edge++];
+          if (e.to < 0 || e.retry) continue;
+          if (index[e.to] < 0) {
+            index[e.to] = low[e.to] = next_index++;
+            stack.push_back(e.to);
+            on_stack[e.to] = true;
+            work.push_back({e.to, 0});
+          } else if (on_stack[e.to]) {
+            low[v] = std::min(low[v], index[e.to]);
+          }
+          continue;
+        }
+        const int done = v;
+        work.pop_back();
+        if (!work.empty()) low[work.back().first] = std::min(low[work.back().first], low[done]);
+        if (low[done] != index[done]) continue;
+        for (int w = -1; w != done;) {
+          w = stack.back();
+          stack.pop_back();
+          on_stack[w] = false;
+          component[w] = next_component;
+        }
+        ++next_component;
+      }
+    }
+    return component;
+  }
+
+  // Which nodes reach the end of a visit or of the tour on outcomes other than `failed`. A
+  // retry list ends one by itself: used up, it skips the target or aborts.
+  std::vector<bool> leaves_without_failed() const {
+    std::vector<bool> can(nodes_.size(), false);
+    for (bool changed = true; changed;) {
+      changed = false;
+      for (std::size_t n = 0; n < nodes_.size(); ++n) {
+        if (can[n]) continue;
+        for (const Edge& e : nodes_[n].edges) {
+          if (e.failed || !(e.to < 0 || e.retry || can[e.to])) continue;
+          can[n] = changed = true;
+          break;
+        }
+      }
+    }
+    return can;
+  }
+
+  void report_cycle(int from, const Edge& closing, const std::vector<int>& component,
+                    const std::vector<bool>& can_leave) {
+    // The way back from the edge's end to its start, inside the component (breadth first).
+    std::map<int, int> came_from{{closing.to, closing.to}};
+    std::vector<int> todo{closing.to};
+    for (std::size_t i = 0; i < todo.size() && came_from.count(from) == 0; ++i) {
+      for (const Edge& e : nodes_[todo[i]].edges) {
+        if (e.to < 0 || e.retry || component[e.to] != component[from]) continue;
+        if (came_from.emplace(e.to, todo[i]).second) todo.push_back(e.to);
+      }
+    }
+    std::vector<int> loop{from};
+    for (int n = from; n != closing.to;) loop.push_back(n = came_from.at(n));
+    std::string names = name(from);
+    for (auto it = loop.rbegin(); it != loop.rend(); ++it) names += " -> " + name(*it);
+    bool trapped = true;
+    for (int n : loop) trapped = trapped && !can_leave[n];
+    const StateSpec& s = *nodes_[from].state;
+    const TransitionSpec* t = closing.transition;
+    std::string message = "the plain transitions " + names +
+                          " form a cycle that can repeat forever; make one of them a retry list "
+                          "(e.g. [" +
+                          name(closing.to) + ", skip_target]) so retries bound it";
+    if (trapped) message += ", and give the cycle a way out on an outcome other than \"failed\"";
+    if (t != nullptr) {
+      diag_.error(t->mark, t->field_path, message);
+    } else {
+      diag_.error(s.mark, s.field_path, message);
+    }
+  }
+
+  // The state's path without the root's name ("visit/align"); a completion as "visit (done)".
+  std::string name(int n) const {
+    const Node& node = nodes_[n];
+    const std::string& path = node.state->path;
+    const std::size_t slash = path.find('/');
+    std::string out = slash == std::string::npos ? path : path.substr(slash + 1);
+    return node.completion ? out + " (done)" : out;
+  }
+
+  Diagnostics& diag_;
+  std::vector<Node> nodes_;
+  std::map<const StateSpec*, int> enter_, complete_;
+};
 
 class MachineReader {
  public:
@@ -110,6 +359,13 @@ class MachineReader {
       const std::string name = kv.first.Scalar();
       const YamlField child_field = states[name];
       const SourceMark name_mark = key_mark(kv.first, states);
+      if (++state_count_ > kMaxStates) {
+        if (state_count_ == kMaxStates + 1) {
+          diag_.error(name_mark, child_field.path(),
+                      "more than " + std::to_string(kMaxStates) + " states in one machine");
+        }
+        return;
+      }
       if (is_reserved_target(name) || name.find('/') != std::string::npos || name.empty()) {
         diag_.error(name_mark, child_field.path(),
                     "\"" + name + "\" cannot name a state (reserved word or contains '/')");
@@ -168,6 +424,12 @@ class MachineReader {
       if (!field["initial"].defined() || !field["states"].defined()) {
         field.error("a composite state needs both initial: and states:");
       }
+      int depth = 0;
+      for (const StateSpec* p = state.parent; p != nullptr; p = p->parent) ++depth;
+      if (depth >= kMaxNesting) {
+        field.error("composites nested more than " + std::to_string(kMaxNesting) + " deep");
+        return false;
+      }
       read_composite_body(field, state);
     }
     read_transitions(field["on"], state);
@@ -183,8 +445,10 @@ class MachineReader {
     }
     const YamlField retries = field["retries"];
     if (auto r = retries.as_int(false)) {
-      if (*r < 0) retries.error("expected a count >= 0");
-      state.retries = static_cast<int>(std::max(0LL, *r));
+      if (*r < 0 || *r > kMaxRetries) {
+        retries.error("expected a count from 0 to " + std::to_string(kMaxRetries));
+      }
+      state.retries = static_cast<int>(std::clamp<long long>(*r, 0, kMaxRetries));
     }
     const KindInfo* kind = state.behaviour.empty() ? nullptr : catalog_.find(state.behaviour);
     if (!state.behaviour.empty() && (kind == nullptr || kind->family != Family::behaviour)) {
@@ -356,17 +620,42 @@ class MachineReader {
   const BehaviourCatalog& catalog_;
   Diagnostics& diag_;
   std::vector<std::string> behaviour_kinds_;
+  std::size_t state_count_ = 0;
 };
+
+bool visits_targets(const StateSpec& state) {
+  if (state.for_each_target) return true;
+  return std::any_of(state.children.begin(), state.children.end(),
+                     [](const auto& c) { return visits_targets(*c); });
+}
+
+std::optional<Machine> load_checked(const YamlField& field, const BehaviourCatalog& catalog,
+                                    Diagnostics& diag, bool must_visit_targets) {
+  const std::size_t errors_before = diag.error_count();
+  std::set<std::pair<int, int>> walked;
+  check_unique_keys_deep(field.node(), field.path(), field.file(), diag, walked);
+  MachineReader reader(catalog, diag);
+  auto root = reader.read_root(field);
+  if (!root || diag.error_count() != errors_before) return std::nullopt;
+  // Judged only on a machine otherwise sound: an unknown target or a missing `done` would
+  // show as a dead end here too.
+  TerminationCheck(*root, diag).run();
+  // Every state is reachable from its composite's initial (checked above), so a for_each
+  // anywhere is one the tour enters.
+  if (must_visit_targets && !visits_targets(*root)) {
+    field["states"].error(
+        "no state is a for_each: target state, so the mission's targets would never be "
+        "visited");
+  }
+  if (diag.error_count() != errors_before) return std::nullopt;
+  return Machine(std::move(root));
+}
 
 }  // namespace
 
 std::optional<Machine> load_machine(const YamlField& field, const BehaviourCatalog& catalog,
                                     Diagnostics& diag) {
-  const std::size_t errors_before = diag.error_count();
-  MachineReader reader(catalog, diag);
-  auto root = reader.read_root(field);
-  if (!root || diag.error_count() != errors_before) return std::nullopt;
-  return Machine(std::move(root));
+  return load_checked(field, catalog, diag, false);
 }
 
 std::optional<Machine> load_machine(const MachineSource& source, const BehaviourCatalog& catalog,
@@ -374,15 +663,16 @@ std::optional<Machine> load_machine(const MachineSource& source, const Behaviour
   if (source.is_default) {
     const auto node = load_yaml_string(default_machine_yaml(), kDefaultMachineFile, diag);
     if (!node) return std::nullopt;
-    return load_machine(YamlField(*node, kDefaultMachineFile, diag), catalog, diag);
+    return load_checked(YamlField(*node, kDefaultMachineFile, diag), catalog, diag, true);
   }
-  if (source.path.empty())
-    return load_machine(YamlField(source.node, source.file, diag), catalog, diag);
+  if (source.path.empty()) {
+    return load_checked(YamlField(source.node, source.file, diag), catalog, diag, true);
+  }
   // Give the fields their path inside the mission ("machine.states...") by reading the node
   // as a child of a wrapper; the node keeps its own marks.
   YAML::Node wrapper;
   wrapper[source.path] = source.node;
-  return load_machine(YamlField(wrapper, source.file, diag)[source.path], catalog, diag);
+  return load_checked(YamlField(wrapper, source.file, diag)[source.path], catalog, diag, true);
 }
 
 }  // namespace projtour

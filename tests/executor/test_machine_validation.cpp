@@ -171,6 +171,181 @@ TEST(MachineValidation, EveryProblemIsReported) {
   EXPECT_EQ(errors.size(), 4u);  // kind, unknown target, failed unhandled, unreachable
 }
 
+TEST(MachineValidation, SelfLoopRefused) {
+  const auto errors =
+      errors_of(machine_with("        behaviour: scripted\n"
+                             "        on: {succeeded: a, failed: skip_target}\n"));
+  EXPECT_EQ(errors, std::vector<std::string>{
+                        "machine.yaml:9:14: states.visit.states.a.on.succeeded: the plain "
+                        "transitions visit/a -> visit/a form a cycle that can repeat forever; "
+                        "make one of them a retry list (e.g. [visit/a, skip_target]) so retries "
+                        "bound it, and give the cycle a way out on an outcome other than "
+                        "\"failed\""});
+}
+
+TEST(MachineValidation, CycleWhoseOnlyExitIsFailedRefused) {
+  const auto errors =
+      errors_of(machine_with("        behaviour: scripted\n"
+                             "        on: {succeeded: b, failed: skip_target}\n",
+                             "      b:\n"
+                             "        behaviour: scripted\n"
+                             "        on: {succeeded: a, failed: skip_target}\n"));
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0].rfind("machine.yaml:9:14: states.visit.states.a.on.succeeded: the plain "
+                            "transitions visit/a -> visit/b -> visit/a form a cycle",
+                            0),
+            0u)
+      << errors[0];
+  EXPECT_NE(errors[0].find("a way out on an outcome other than \"failed\""), std::string::npos);
+}
+
+// A plain cycle through `failed` repeats as long as the behaviours keep failing.
+TEST(MachineValidation, CycleOfFailedTransitionsRefused) {
+  const auto errors =
+      errors_of(machine_with("        behaviour: scripted\n"
+                             "        on: {succeeded: finish, failed: b}\n",
+                             "      b:\n"
+                             "        behaviour: scripted\n"
+                             "        on: {succeeded: finish, failed: a}\n"));
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0].rfind("machine.yaml:9:33: states.visit.states.a.on.failed: the plain "
+                            "transitions visit/a -> visit/b -> visit/a form a cycle that can "
+                            "repeat forever; make one of them a retry list (e.g. [visit/b, "
+                            "skip_target]) so retries bound it",
+                            0),
+            0u)
+      << errors[0];
+  EXPECT_EQ(errors[0].find("other than \"failed\""), std::string::npos) << errors[0];
+}
+
+// Completing a composite takes its `done`: a done leading back into it closes a cycle too.
+TEST(MachineValidation, CycleThroughACompositesDoneRefused) {
+  const auto errors = errors_of(
+      "initial: visit\n"
+      "states:\n"
+      "  visit:\n"
+      "    for_each: target\n"
+      "    initial: inner\n"
+      "    states:\n"
+      "      inner:\n"
+      "        initial: a\n"
+      "        states:\n"
+      "          a:\n"
+      "            behaviour: scripted\n"
+      "            on: {succeeded: finish, failed: skip_target}\n"
+      "        on: {done: inner}\n"
+      "    on: {done: finish}\n");
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0].rfind("machine.yaml:13:14: states.visit.states.inner.on.done: the plain "
+                            "transitions visit/inner (done) -> visit/inner -> visit/inner/a -> "
+                            "visit/inner (done) form a cycle",
+                            0),
+            0u)
+      << errors[0];
+}
+
+TEST(MachineValidation, CycleThroughARetryListAccepted) {
+  Harness h;
+  Diagnostics diag;
+  const auto machine =
+      h.parse(machine_with("        behaviour: scripted\n"
+                           "        retries: 3\n"
+                           "        on: {succeeded: b, failed: skip_target}\n",
+                           "      b:\n"
+                           "        behaviour: scripted\n"
+                           "        on: {succeeded: [a, finish], failed: skip_target}\n"),
+              diag);
+  EXPECT_TRUE(machine.has_value()) << diag.format();
+}
+
+// A kind that declares no outcome of its own can only fail.
+TEST(MachineValidation, StateWhoseEveryWayOutIsFailedRefused) {
+  Harness h;
+  h.catalog.add("doomed", {}, {}, nullptr);
+  Diagnostics diag;
+  EXPECT_FALSE(h.parse(machine_with("        behaviour: doomed\n"
+                                    "        on: {failed: skip_target}\n"),
+                       diag));
+  ASSERT_EQ(diag.items().size(), 1u);
+  EXPECT_EQ(diag.items()[0].format(),
+            "machine.yaml:7:7: states.visit.states.a: every way out of \"visit/a\" is "
+            "\"failed\": it needs a transition on another outcome that leads to finish, "
+            "skip_target, defer_target or abort");
+}
+
+TEST(MachineValidation, RetriesOfABillionRefused) {
+  const auto errors =
+      errors_of(machine_with("        behaviour: scripted\n"
+                             "        retries: 1000000000\n"
+                             "        on: {succeeded: [a, finish], failed: skip_target}\n"));
+  EXPECT_EQ(errors, std::vector<std::string>{"machine.yaml:9:18: states.visit.states.a.retries: "
+                                             "expected a count from 0 to 100"});
+}
+
+TEST(MachineValidation, MachineThatNeverVisitsTargetsRefused) {
+  Harness h;
+  Diagnostics diag;
+  const std::string yaml =
+      "initial: a\n"
+      "states:\n"
+      "  a:\n"
+      "    behaviour: scripted\n"
+      "    on: {succeeded: finish, failed: abort}\n";
+  const auto node = load_yaml_string(yaml, "machine.yaml", diag);
+  ASSERT_TRUE(node);
+  EXPECT_TRUE(h.parse(yaml, diag)) << diag.format();  // a machine of its own may do without
+  MachineSource source;
+  source.is_default = false;
+  source.node = *node;
+  source.file = "machine.yaml";
+  EXPECT_FALSE(load_machine(source, h.catalog, diag));
+  ASSERT_EQ(diag.items().size(), 1u);
+  EXPECT_EQ(diag.items()[0].format(),
+            "machine.yaml:3:3: states: no state is a for_each: target state, so the mission's "
+            "targets would never be visited");
+}
+
+TEST(MachineValidation, DuplicateKeyInMachineRefused) {
+  const auto errors =
+      errors_of(machine_with("        behaviour: scripted\n"
+                             "        on: {succeeded: finish, failed: skip_target}\n",
+                             "      a:\n"
+                             "        behaviour: scripted\n"
+                             "        params: {ticks: 2, ticks: 3}\n"
+                             "        on: {succeeded: finish, failed: skip_target}\n"));
+  EXPECT_EQ(errors, (std::vector<std::string>{
+                        "machine.yaml:10:7: states.visit.states.a: duplicate key \"a\" (first at "
+                        "line 7)",
+                        "machine.yaml:12:28: states.visit.states.a.params.ticks: duplicate key "
+                        "\"ticks\" (first at line 12)"}));
+}
+
+// Aliases let a few lines name a billion states; the count is bounded before they are read.
+TEST(MachineValidation, AliasesCannotMultiplyStatesPastTheBound) {
+  std::string yaml =
+      "initial: visit\n"
+      "states:\n"
+      "  visit:\n"
+      "    for_each: target\n"
+      "    initial: s0\n"
+      "    states:\n"
+      "      s0: &l0 {behaviour: scripted, on: {succeeded: finish, failed: skip_target}}\n";
+  std::string level = "l0";
+  for (int depth = 1; depth <= 9; ++depth) {
+    const std::string name = "l" + std::to_string(depth);
+    yaml += "      s" + std::to_string(depth) + ": &" + name + " {initial: a, states: {";
+    for (const char* child : {"a", "b", "c", "d", "e", "f", "g", "h", "i", "j"}) {
+      yaml += std::string(child) + ": *" + level + ", ";
+    }
+    yaml += "}, on: {done: finish}}\n";
+    level = name;
+  }
+  yaml += "    on: {done: finish}\n";
+  const auto errors = errors_of(yaml);
+  ASSERT_FALSE(errors.empty());
+  EXPECT_NE(errors[0].find("more than 1000 states in one machine"), std::string::npos) << errors[0];
+}
+
 TEST(MachineValidation, DefaultMachineIsValidAndDrawsClusters) {
   Harness h;
   h.load_default();

@@ -101,10 +101,15 @@ class Machine {
 };
 
 // Reads and checks a machine; nullopt when any error was recorded. Every problem found is
-// recorded, each with file:line:column and field path.
+// recorded, each with file:line:column and field path: besides the shape, kinds, outcomes and
+// targets, no duplicate key, retries from 0 to 100, at most 1000 states nested at most 16
+// deep, and the proof that the machine ends: no cycle of plain transitions (a cycle must go
+// through a retry list, which the states' retries bound), and every state has a way to
+// finish, skip_target, defer_target or abort on outcomes other than `failed`.
 std::optional<Machine> load_machine(const YamlField& field, const BehaviourCatalog& catalog,
                                     Diagnostics& diag);
 // `machine:` of a mission: the default, an inline mapping or a file (already read by the loader).
+// A mission always has targets, so its machine must also have a for_each: target state.
 std::optional<Machine> load_machine(const MachineSource& source, const BehaviourCatalog& catalog,
                                     Diagnostics& diag);
 
