@@ -489,4 +489,173 @@ TEST(PluginSearchPath, NamedCurrentDirectoryIsSearched) {
   EXPECT_NE(registry.find("fixture_wait"), nullptr);
 }
 
+namespace trust {
+
+// A copy of fixture `name` at dir/file_name with `mode`: a file of its own, never loaded before.
+fs::path copy_with_mode(const std::string& name, const fs::path& dir, const std::string& file_name,
+                        fs::perms mode) {
+  const fs::path file = dir / file_name;
+  fs::copy_file(fixture(name), file);
+  fs::permissions(file, mode);
+  return file;
+}
+
+constexpr fs::perms kOwnerOnly = fs::perms::owner_all | fs::perms::group_read |
+                                 fs::perms::group_exec | fs::perms::others_read |
+                                 fs::perms::others_exec;  // 0755
+
+const std::string kTrustRule =
+    "; a plugin path must be writable by its owner and root only "
+    "(--allow-writable-plugin-path loads it anyway)";
+
+TEST(PluginTrust, GroupWritableDirectoryIsRefusedNamingItsMode) {
+  TempDir dir;
+  copy_with_mode("pt_fixture_good", dir.path(), "libpt_fixture_good.so", kOwnerOnly);
+  fs::permissions(dir.path(), kOwnerOnly | fs::perms::group_write);
+  PluginRegistry registry;
+  EXPECT_EQ(
+      registry.load_directories({dir.path()}),
+      (std::vector<std::string>{dir.path().string() +
+                                ": plugin directory is group-writable (mode 0775)" + kTrustRule}));
+  EXPECT_EQ(registry.find("fixture_wait"), nullptr);
+}
+
+TEST(PluginTrust, WorldWritableLibraryIsRefusedNamingItsMode) {
+  TempDir dir;
+  const fs::path file = copy_with_mode("pt_fixture_good", dir.path(), "libpt_fixture_ww.so",
+                                       kOwnerOnly | fs::perms::others_write);
+  const std::string refusal =
+      file.string() + ": plugin library is world-writable (mode 0757)" + kTrustRule;
+  PluginRegistry registry;
+  EXPECT_EQ(load_error(registry, file), refusal);
+  EXPECT_EQ(registry.load_directories({dir.path()}), (std::vector<std::string>{refusal}));
+  EXPECT_TRUE(registry.kinds().empty());
+  EXPECT_FALSE(projtour::test::mapped_in_this_process(file));
+}
+
+// Whoever may write a directory above the plugin directory may swap the whole tree after the
+// check; a sticky one (like /tmp, where these tests live) keeps others from renaming ours.
+TEST(PluginTrust, WritableDirectoryAboveIsRefusedUnlessSticky) {
+  TempDir above;
+  const fs::path dir = above / "plugins";
+  fs::create_directory(dir);
+  fs::permissions(dir, kOwnerOnly);
+  copy_with_mode("pt_fixture_good", dir, "libpt_fixture_good.so", kOwnerOnly);
+  fs::permissions(above.path(), fs::perms::all);
+  PluginRegistry registry;
+  EXPECT_EQ(registry.load_directories({dir}),
+            (std::vector<std::string>{dir.string() + ": plugin directory is under " +
+                                      above.path().string() +
+                                      ", which is world-writable (mode 0777)" + kTrustRule}));
+  EXPECT_EQ(registry.find("fixture_wait"), nullptr);
+
+  fs::permissions(above.path(), fs::perms::all | fs::perms::sticky_bit);
+  EXPECT_TRUE(registry.load_directories({dir}).empty());
+  EXPECT_NE(registry.find("fixture_wait"), nullptr);
+}
+
+// The entry in a trusted directory is only a name: what counts is where the file really is.
+TEST(PluginTrust, SymlinkIntoAWritableDirectoryIsRefused) {
+  TempDir trusted("trusted");
+  TempDir open("open");
+  const fs::path real =
+      copy_with_mode("pt_fixture_good", open.path(), "libpt_fixture_good.so", kOwnerOnly);
+  fs::permissions(open.path(), kOwnerOnly | fs::perms::others_write);
+  fs::create_symlink(real, trusted / "libpt_fixture_good.so");
+  PluginRegistry registry;
+  EXPECT_EQ(load_error(registry, trusted / "libpt_fixture_good.so"),
+            (trusted / "libpt_fixture_good.so").string() + ": its directory " +
+                open.path().string() + " is world-writable (mode 0757)" + kTrustRule);
+}
+
+// Tests run as root here, and root may hand a file to anyone; otherwise chown is not ours to do.
+TEST(PluginTrust, LibraryOfAnotherUserIsRefused) {
+  if (::geteuid() != 0) GTEST_SKIP() << "only root can give a file to another user";
+  TempDir dir;
+  const fs::path file =
+      copy_with_mode("pt_fixture_good", dir.path(), "libpt_fixture_other_user.so", kOwnerOnly);
+  ASSERT_EQ(::chown(file.c_str(), 4242, 4242), 0);
+  PluginRegistry registry;
+  EXPECT_EQ(load_error(registry, file),
+            file.string() +
+                ": plugin library is owned by uid 4242 (mode 0755), neither root nor this user "
+                "(uid 0)" +
+                kTrustRule);
+}
+
+TEST(PluginTrust, AllowOptionAdmitsWritablePaths) {
+  TempDir dir;
+  const fs::path file =
+      copy_with_mode("pt_fixture_good", dir.path(), "libpt_fixture_allowed.so", fs::perms::all);
+  fs::permissions(dir.path(), fs::perms::all);
+  PluginRegistry strict;
+  EXPECT_EQ(strict.load_directories({dir.path()}).size(), 1u);
+  PluginRegistry allowing(PluginLoadOptions{true});
+  EXPECT_TRUE(allowing.load_directories({dir.path()}).empty());
+  EXPECT_EQ(allowing.require("fixture_wait").library, fs::canonical(file));
+}
+
+// dlopen runs constructors before any entry point can be asked for: a refused file must never
+// reach it. The allowed load at the end shows the mark is really left when the code runs.
+TEST(PluginTrust, RefusedLibraryNeverRunsItsConstructor) {
+  TempDir marks("marks");
+  const fs::path marker = marks / "constructor_ran";
+  ScopedEnv env("PROJTOUR_FIXTURE_MARKER", marker.c_str());
+
+  TempDir open_dir("open_dir");
+  copy_with_mode("pt_fixture_constructor", open_dir.path(), "libpt_fixture_constructor.so",
+                 kOwnerOnly);
+  fs::permissions(open_dir.path(), fs::perms::all);
+  PluginRegistry registry;
+  EXPECT_EQ(registry.load_directories({open_dir.path()}).size(), 1u);
+  EXPECT_FALSE(fs::exists(marker));
+
+  TempDir dir("file");
+  const fs::path open_file =
+      copy_with_mode("pt_fixture_constructor", dir.path(), "libpt_fixture_constructor.so",
+                     kOwnerOnly | fs::perms::group_write);
+  EXPECT_NE(load_error(registry, open_file).find("plugin library is group-writable"),
+            std::string::npos);
+  EXPECT_FALSE(fs::exists(marker));
+  EXPECT_FALSE(projtour::test::mapped_in_this_process(open_file));
+
+  PluginRegistry allowing(PluginLoadOptions{true});
+  EXPECT_EQ(load_error(allowing, open_file),
+            open_file.string() + ": not a projtour plugin (no projtour_plugin_descriptor)");
+  EXPECT_TRUE(fs::exists(marker));
+}
+
+TEST(PluginTrust, BrokenLibraryDoesNotHideAGoodOneFurtherDown) {
+  TempDir first("first");
+  TempDir second("second");
+  TempDir third("third");
+  std::ofstream(first / "libpt_fixture_good.so") << std::string(512, 'x');
+  fs::create_symlink(second / "libpt_fixture_good.so", second / "libpt_fixture_good.so");
+  const fs::path good =
+      copy_with_mode("pt_fixture_good", third.path(), "libpt_fixture_good.so", kOwnerOnly);
+  PluginRegistry registry;
+  EXPECT_TRUE(registry.load_directories({first.path(), second.path(), third.path()}).empty());
+  EXPECT_EQ(registry.require("fixture_wait").library, fs::canonical(good));
+  const std::string instead = " (" + good.string() + " further down the path was loaded instead)";
+  EXPECT_EQ(
+      registry.warnings(),
+      (std::vector<std::string>{(first / "libpt_fixture_good.so").string() +
+                                    ": not an ELF shared object (no ELF header)" + instead,
+                                (second / "libpt_fixture_good.so").string() +
+                                    ": cannot open: Too many levels of symbolic links" + instead}));
+}
+
+TEST(PluginTrust, BrokenLibraryWithNoGoodOneIsTheError) {
+  TempDir first("first");
+  TempDir second("second");
+  std::ofstream(first / "libpt_fixture_good.so") << std::string(512, 'x');
+  PluginRegistry registry;
+  EXPECT_EQ(registry.load_directories({first.path(), second.path()}),
+            (std::vector<std::string>{(first / "libpt_fixture_good.so").string() +
+                                      ": not an ELF shared object (no ELF header)"}));
+  EXPECT_TRUE(registry.warnings().empty());
+}
+
+}  // namespace trust
+
 }  // namespace
