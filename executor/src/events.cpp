@@ -33,14 +33,15 @@ void to_json(Json& j, const ExecutorEvent& event) {
 
 ExecutorObserver::~ExecutorObserver() = default;
 
-JsonlEventWriter::JsonlEventWriter(const std::filesystem::path& file, bool append)
-    : out_(file, append ? std::ios::app : std::ios::trunc) {
-  if (!out_) throw std::runtime_error("cannot write " + file.string());
-}
+JsonlEventWriter::JsonlEventWriter(const std::filesystem::path& file) : out_(file) {}
 
 void JsonlEventWriter::on_event(const ExecutorEvent& event) {
-  out_ << dump_json(Json(event)) << '\n';
-  out_.flush();
+  if (!error_.empty()) return;
+  try {
+    out_.append(dump_json(Json(event)) + '\n');
+  } catch (const std::exception& e) {
+    error_ = e.what();
+  }
 }
 
 }  // namespace projtour

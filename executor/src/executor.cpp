@@ -7,6 +7,7 @@
 
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/occupancy_map.hpp"
+#include "projtour/run_files.hpp"
 #include "projtour_executor/json_io.hpp"
 #include "projtour_executor/measurements.hpp"
 
@@ -318,10 +319,10 @@ void Executor::open_visit(const StateSpec& for_each, std::size_t index) {
   record_.index = index;
   record_.id = run_.mission->targets[index].id;
   if (!run_.run_dir.empty()) {
-    std::error_code ec;
-    std::filesystem::create_directories(run_.run_dir / "targets" / record_.id, ec);
-    if (ec && run_.log != nullptr) {
-      run_.log->warning("cannot create target directory: " + ec.message());
+    try {
+      make_run_directory(run_.run_dir / "targets" / record_.id);
+    } catch (const std::exception& e) {
+      if (run_.log != nullptr) run_.log->warning(e.what());
     }
   }
   active_.push_back(&for_each);

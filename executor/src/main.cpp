@@ -71,7 +71,10 @@ projtour::RunOptions parse_options(int argc, char** argv, int options) {
   if (options & kSpeed) {
     projtour::cli::add_finite(
         app, "--speed", [&](double x) { run.speed = x; },
-        [](double x) { return x < 0 ? "must be >= 0 (0 = as fast as possible)" : ""; }, "X");
+        [](double x) {
+          return x > 0 ? "" : "must be > 0 (a dry run without --speed runs as fast as it can)";
+        },
+        "X");
   }
   if (options & kWatchdog) {
     projtour::cli::add_finite(

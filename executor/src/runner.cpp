@@ -2,8 +2,10 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <ctime>
@@ -22,6 +24,7 @@
 #include "projtour_executor/json_io.hpp"
 #include "projtour_executor/progress.hpp"
 #include "projtour_executor/report.hpp"
+#include "projtour_executor/run_directory.hpp"
 #include "projtour_executor/summary_page.hpp"
 #include "projtour_executor/tour_picture.hpp"
 #include "projtour_executor/watchdog.hpp"
@@ -77,13 +80,28 @@ void print_diagnostics(const Diagnostics& diag, std::ostream& err) {
   for (const auto& d : diag.items()) err << d.format() << "\n";
 }
 
-std::filesystem::path default_run_dir(const std::string& mission) {
-  const std::time_t now = std::time(nullptr);
-  std::tm local{};
-  localtime_r(&now, &local);
-  char stamp[32];
-  std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &local);
-  return std::filesystem::path("runs") / (mission + "-" + stamp);
+// The pacing sleep, in slices: a signal acts within kSignalSlice of wall time at any --speed
+// (a slowed-down dry run sleeps minutes per tick).
+constexpr auto kSignalSlice = std::chrono::milliseconds(20);
+void paced_sleep_until(std::chrono::steady_clock::time_point until) {
+  while (g_stop_signal == 0 && g_pause_signal == 0 && g_resume_signal == 0) {
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= until) return;
+    std::this_thread::sleep_for(
+        std::min<std::chrono::steady_clock::duration>(until - now, kSignalSlice));
+  }
+}
+
+// --speed: positive and finite; below real time only where no real base waits on the ticks.
+std::string speed_problem(const RunOptions& options) {
+  if (!options.speed) return "";
+  const double x = *options.speed;
+  if (!std::isfinite(x) || !(x > 0.0)) return "--speed must be a positive, finite number";
+  if (x < 1.0 && !options.dry_run) {
+    return "--speed below 1 only in a dry run: on hardware a slowed tick loop would hold up the "
+           "base's commands and the safe stop";
+  }
+  return "";
 }
 
 std::shared_ptr<Driver> make_driver(const PluginRegistry& registry, const InstanceChoice& c,
@@ -258,12 +276,19 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     return 2;
   }
   MissionSpec& mission = prepared->mission;
-
-  if (options.resume && !options.out) {
-    err << "projtour: --resume needs --out DIR (the run to continue)\n";
+  if (const std::string problem = speed_problem(options); !problem.empty()) {
+    err << "projtour: " << problem << "\n";
     return 2;
   }
-  const std::filesystem::path run_dir = options.out ? *options.out : default_run_dir(mission.name);
+
+  std::optional<RunDirectory> claimed;
+  try {
+    claimed.emplace(RunDirectory::claim(options.out, options.resume, mission.name));
+  } catch (const RunDirectoryError& e) {
+    err << "projtour: " << e.what() << "\n";
+    return 2;
+  }
+  const std::filesystem::path run_dir = claimed->path();
   std::optional<Checkpoint> checkpoint;
   if (options.resume) {
     try {
@@ -272,12 +297,6 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
       err << "projtour: cannot resume: " << e.what() << "\n";
       return 2;
     }
-  }
-  std::error_code ec;
-  std::filesystem::create_directories(run_dir / "targets", ec);
-  if (ec) {
-    err << "projtour: cannot create " << run_dir.string() << ": " << ec.message() << "\n";
-    return 2;
   }
 
   std::uint64_t seed = 1;
@@ -343,7 +362,15 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     executor.restore(checkpoint->done, first);
   }
 
-  JsonlEventWriter events(run_dir / "events.jsonl", options.resume);
+  std::optional<JsonlEventWriter> opened_events;
+  try {
+    opened_events.emplace(run_dir / "events.jsonl");
+  } catch (const std::exception& e) {
+    err << "projtour: nothing moved: " << e.what() << "\n";
+    for (const auto& d : drivers.all()) d->safe_stop();
+    return 2;
+  }
+  JsonlEventWriter& events = *opened_events;
   const bool terminal = &out == &std::cout && ::isatty(STDOUT_FILENO) != 0;
   ProgressDisplay progress(out, terminal, mission.targets.size(), already_done);
   auto write_checkpoint_of = [&](double mission_s, const std::vector<TargetRecord>& done,
@@ -361,12 +388,19 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   // handler's files. Once the handler holds this it never lets go; the process ends.
   std::timed_mutex files_mutex;
   std::atomic<bool> files_final{false};
+  // A checkpoint that cannot be written (a full disk) ends the tour, after the tick that found
+  // it: it is not thrown through the executor, whose step would be left half done.
+  std::string write_failure;
   auto write_checkpoint = [&] {
     std::lock_guard<std::timed_mutex> lock(files_mutex);
     if (files_final) return;
     const bool interrupted = executor.finished() && executor.outcome() == TourOutcome::interrupted;
-    write_checkpoint_of(clock.now_s(), executor.records(),
-                        interrupted ? executor.current_target() : std::nullopt);
+    try {
+      write_checkpoint_of(clock.now_s(), executor.records(),
+                          interrupted ? executor.current_target() : std::nullopt);
+    } catch (const std::exception& e) {
+      if (write_failure.empty()) write_failure = e.what();
+    }
   };
   TargetDoneHook checkpoint_hook(write_checkpoint);
   TourTrace trace(run);
@@ -453,6 +487,8 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   });
 
   const double speed = options.speed.value_or(options.dry_run ? 0.0 : 1.0);
+  bool cancelled_on_failure = false;
+  bool stopping = false;  // a stop was asked for: the tour winds down unpaced
   const double mission_start_s = clock.now_s();
   const auto pace_start = std::chrono::steady_clock::now();
   {
@@ -460,6 +496,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
       g_stop_signal = 0;
       err << "projtour: interrupted before the tour started\n";
       executor.request_cancel();
+      stopping = true;
     }
     executor.start();
     watchdog.publish(snapshot());
@@ -468,6 +505,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
         g_stop_signal = 0;
         err << "\nprojtour: interrupted; cancelling " << executor.active_state() << "\n";
         executor.request_cancel();
+        stopping = true;
       }
       if (g_pause_signal != 0) {
         g_pause_signal = 0;
@@ -487,9 +525,20 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
       if (!watchdog.tick_finished()) return 1;
       watchdog.publish(snapshot());
       trace.sample();
-      if (speed > 0) {
+      if (write_failure.empty() && !events.error().empty()) write_failure = events.error();
+      if (!write_failure.empty() && !cancelled_on_failure) {
+        cancelled_on_failure = true;
+        err << "\nprojtour: " << write_failure << "; ending the run\n";
+        executor.request_cancel();
+        stopping = true;
+      }
+      // Winding down is not paced: the behaviours' cancel grace is mission time, and the safe
+      // stop must not wait on wall time for it (a slowed dry run would take minutes).
+      if (speed > 0 && !stopping) {
         const double ahead_s = (clock.now_s() - mission_start_s) / speed;
-        std::this_thread::sleep_until(pace_start + std::chrono::duration<double>(ahead_s));
+        paced_sleep_until(pace_start +
+                          std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                              std::chrono::duration<double>(ahead_s)));
       }
     }
   }
@@ -501,21 +550,31 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     err << "projtour: aborted: " << executor.abort_reason() << "\n";
   }
 
-  RunSummary summary = make_summary(executor.outcome());
+  // A run whose files could not all be written failed, whatever its tour did: it ends aborted
+  // with the reason, writing what it still can.
+  write_checkpoint();
+  const TourOutcome outcome = write_failure.empty() ? executor.outcome() : TourOutcome::aborted;
+  RunSummary summary = make_summary(outcome);
+  if (!write_failure.empty()) summary.reason = write_failure;
   if (GroundTruth* truth = drivers.ground_truth()) summary.building = truth->building_truth();
   try {
-    write_checkpoint();
     write_file_atomically(run_dir / "report.json", dump_json(build_report(summary), 2) + "\n");
   } catch (const std::exception& e) {
-    err << "projtour: " << e.what() << "\n";
+    err << "projtour: run failed: " << e.what() << "\n";
     return 1;
   }
-  // The pictures are for people; a failure to draw them must not change the tour's outcome.
+  if (!write_failure.empty()) {
+    err << "projtour: run failed: " << write_failure << "\n";
+    return 1;
+  }
+  // The pictures are for people and the report is written; still, a run directory missing its
+  // summary is a failed run (a full disk), said so and not lost.
   try {
     if (run.map) write_tour_picture(trace.picture(mission, summary.targets), run_dir / "tour.png");
     write_summary_page(read_summary_input(run_dir), run_dir);
   } catch (const std::exception& e) {
-    err << "projtour: warning: " << e.what() << "\n";
+    err << "projtour: run failed: " << e.what() << "\n";
+    return 1;
   }
   print_target_table(summary, out);
   char mission_time[32];

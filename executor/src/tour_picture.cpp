@@ -8,6 +8,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "projtour/run_image.hpp"
+
 namespace projtour {
 
 namespace {
@@ -350,14 +352,12 @@ cv::Mat render_tour_picture(const TourPictureInput& input) {
 
 void write_tour_picture(const TourPictureInput& input, const std::filesystem::path& png) {
   const cv::Mat img = render_tour_picture(input);
-  bool written = false;
   try {
-    if (png.has_parent_path()) std::filesystem::create_directories(png.parent_path());
-    written = cv::imwrite(png.string(), img);
+    if (png.has_parent_path()) make_run_directory(png.parent_path());
+    write_run_image(png, img);
   } catch (const std::exception& e) {
-    throw std::runtime_error(png.string() + ": cannot write the tour picture: " + e.what());
+    throw std::runtime_error("cannot write the tour picture: " + std::string(e.what()));
   }
-  if (!written) throw std::runtime_error(png.string() + ": cannot write the tour picture");
 }
 
 }  // namespace projtour

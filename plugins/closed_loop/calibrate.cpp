@@ -14,6 +14,7 @@
 #include "projtour/gray_code.hpp"
 #include "projtour/projector_fit.hpp"
 #include "projtour/registered_depth.hpp"
+#include "projtour/run_image.hpp"
 
 namespace projtour::closed_loop {
 
@@ -66,14 +67,8 @@ void write_fragment(const std::filesystem::path& file, const ProjectorCalibratio
     << ", yaw_deg: " << fixed(rad_to_deg(ypr[0]), 4)
     << ", pitch_deg: " << fixed(rad_to_deg(ypr[1]), 4)
     << ", roll_deg: " << fixed(rad_to_deg(ypr[2]), 4) << "}\n";
-  std::filesystem::create_directories(file.parent_path());
-  const std::filesystem::path tmp = file.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << s.str();
-    if (!out) throw std::runtime_error("cannot write " + tmp.string());
-  }
-  std::filesystem::rename(tmp, file);
+  make_run_directory(file.parent_path());
+  write_run_file(file, s.str());
 }
 
 }  // namespace

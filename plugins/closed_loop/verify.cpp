@@ -19,6 +19,7 @@
 #include "projtour/outline_match.hpp"
 #include "projtour/registered_depth.hpp"
 #include "projtour/registration.hpp"
+#include "projtour/run_image.hpp"
 
 namespace projtour::closed_loop {
 
@@ -375,8 +376,10 @@ void Verify::write_view(const Context& ctx) const {
     }
   }
   const std::filesystem::path file = ctx.target_dir / "camera_view.png";
-  if (!cv::imwrite(file.string(), view)) {
-    ctx.log().warning(target_prefix(ctx) + "cannot write " + file.string());
+  try {
+    write_run_image(file, view);
+  } catch (const std::exception& e) {
+    ctx.log().warning(target_prefix(ctx) + e.what());
   }
 }
 

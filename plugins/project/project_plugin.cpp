@@ -24,6 +24,7 @@
 #include "projtour/model.hpp"
 #include "projtour/plugin_author.hpp"
 #include "projtour/projection.hpp"
+#include "projtour/run_image.hpp"
 #include "tracker.hpp"
 
 namespace projtour {
@@ -89,8 +90,10 @@ class Project : public Behaviour {
     show_current(ctx, /*force=*/true);
     if (!ctx.target_dir.empty()) {
       const std::filesystem::path file = ctx.target_dir / "projector.png";
-      if (!cv::imwrite(file.string(), last_frame_)) {
-        ctx.log().warning("target " + ctx.target->id + ": cannot write " + file.string());
+      try {
+        write_run_image(file, last_frame_);
+      } catch (const std::exception& e) {
+        ctx.log().warning("target " + ctx.target->id + ": " + e.what());
       }
     }
   }

@@ -1,5 +1,6 @@
 // Projector drivers. Both keep the projector's frame size from the robot file, so blank() can
 // show black without having seen a frame.
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -10,6 +11,7 @@
 #include <sstream>
 
 #include "projtour/plugin_author.hpp"
+#include "projtour/run_image.hpp"
 
 namespace projtour {
 namespace {
@@ -44,14 +46,23 @@ class FilesProjector : public ProjectorDriver {
     if (dir_.empty() || dir_ == "projector") {
       throw DriverError("projector files: no run directory and no `dir` parameter");
     }
+    // A resumed run continues the index and the frame numbers: nothing of the first part is
+    // overwritten.
+    try {
+      make_run_directory(dir_);
+      const bool fresh = !std::filesystem::exists(dir_ / "index.csv");
+      index_ = AppendOnlyFile(dir_ / "index.csv");
+      if (fresh) index_.append("t_s,event,file\n");
+    } catch (const std::exception& e) {
+      throw DriverError(std::string("projector files: ") + e.what());
+    }
     std::error_code ec;
-    std::filesystem::create_directories(dir_, ec);
-    if (ec)
-      throw DriverError("projector files: cannot create " + dir_.string() + ": " + ec.message());
-    index_.open(dir_ / "index.csv", std::ios::trunc);
-    if (!index_)
-      throw DriverError("projector files: cannot write " + (dir_ / "index.csv").string());
-    index_ << "t_s,event,file\n";
+    for (std::filesystem::directory_iterator it(dir_, ec), end; !ec && it != end;
+         it.increment(ec)) {
+      const std::string name = it->path().filename().string();
+      long n = 0;
+      if (std::sscanf(name.c_str(), "frame_%ld.png", &n) == 1) frames_ = std::max(frames_, n);
+    }
   }
 
   void update(double t_s) override { t_s_ = t_s; }
@@ -61,15 +72,17 @@ class FilesProjector : public ProjectorDriver {
     std::ostringstream name;
     name << "frame_" << std::setw(6) << std::setfill('0') << ++frames_ << ".png";
     const std::filesystem::path file = dir_ / name.str();
-    if (!cv::imwrite(file.string(), frame_bgr)) {
-      throw DriverError("projector files: cannot write " + file.string());
+    try {
+      write_run_image(file, frame_bgr);
+      index_.append(time_text() + ",show," + name.str() + "\n");
+    } catch (const std::exception& e) {
+      throw DriverError(std::string("projector files: ") + e.what());
     }
-    index_ << t_s_ << ",show," << name.str() << "\n" << std::flush;
     blank_ = false;
   }
 
   void blank() override {
-    if (!blank_) index_ << t_s_ << ",blank,\n" << std::flush;
+    if (!blank_) index_.append(time_text() + ",blank,\n");
     blank_ = true;
   }
   bool is_blank() const override { return blank_; }
@@ -83,7 +96,13 @@ class FilesProjector : public ProjectorDriver {
  private:
   cv::Size size_;
   std::filesystem::path dir_;
-  std::ofstream index_;
+  // The mission time as the index always wrote it (an ostream's default 6 significant digits).
+  std::string time_text() const {
+    std::ostringstream t;
+    t << t_s_;
+    return t.str();
+  }
+  AppendOnlyFile index_;
   long frames_ = 0;
   double t_s_ = 0.0;
   bool blank_ = true;

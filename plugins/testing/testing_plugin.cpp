@@ -8,6 +8,7 @@
 
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/plugin_author.hpp"
+#include "projtour/run_files.hpp"
 #include "scripted_behaviour.hpp"
 
 namespace projtour::testing {
@@ -30,8 +31,10 @@ class NullDevice {
   // One line "<kind> <event>" per call.
   void note(const std::string& event) noexcept {
     if (!log_ || run_dir_.empty()) return;
-    std::ofstream log(run_dir_ / "test_drivers.log", std::ios::app);
-    log << kind_ << " " << event << "\n";
+    try {
+      AppendOnlyFile(run_dir_ / "test_drivers.log").append(std::string(kind_) + " " + event + "\n");
+    } catch (const std::exception&) {  // noexcept: called from safe_stop; the log is the tests'
+    }
   }
 
  private:

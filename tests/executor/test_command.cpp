@@ -6,10 +6,12 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "projtour/params_reader.hpp"
 #include "projtour/plugin_loader.hpp"
+#include "projtour/run_files.hpp"
 #include "projtour_executor/executor.hpp"
 #include "projtour_executor/json_io.hpp"
 #include "projtour_test/process.hpp"
@@ -47,8 +49,8 @@ class Command : public ::testing::Test {
       m << "  - id: " << ids[i] << "\n"
         << "    model: " << kSource << "/examples/models/bunny.ply\n"
         << "    pose: {x: " << 3 + 3 * i << ".0, y: 7.0, z: 0.9, yaw_deg: -90}\n"
-        << "    model_points: [[0.05, -0.04, 0.04], [0.05, 0.04, 0.04], [0.05, 0.04, -0.02], "
-           "[0.05, -0.04, -0.02]]\n"
+        << "    model_points: [[0.1165, -0.0044, 0.0911], [0.1230, 0.0374, 0.0884], "
+           "[0.1250, 0.0410, 0.0476], [0.1259, -0.0009, 0.0539]]\n"
         << "    content: " << data << "content.png\n";
     }
     m << "machine:\n" << machine;
@@ -93,9 +95,9 @@ const std::string kLinearMachine = R"(  initial: visit
 
 TEST_F(Command, ScriptedTourRunsToCompletion) {
   const fs::path run = dir_ / "run";
-  ASSERT_EQ(
-      projtour("run " + kSource + "/missions/scripted_tour.yaml --speed 0 --out " + run.string()),
-      0)
+  ASSERT_EQ(projtour("run " + kSource + "/missions/scripted_tour.yaml --speed 1000 --out " +
+                     run.string()),
+            0)
       << err();
   const Json report = read_json_file(run / "report.json");
   EXPECT_EQ(report.at("mission").get<std::string>(), "scripted-tour");
@@ -127,7 +129,8 @@ TEST_F(Command, ScriptedTourRunsToCompletion) {
 
 TEST_F(Command, SkipsExitThreeWithReasons) {
   const fs::path mission = write_mission(kLinearMachine);
-  ASSERT_EQ(projtour("run " + mission.string() + " --speed 0 --out " + (dir_ / "run").string()), 3)
+  ASSERT_EQ(projtour("run " + mission.string() + " --speed 1000 --out " + (dir_ / "run").string()),
+            3)
       << err();
   const Json report = read_json_file(dir_ / "run" / "report.json");
   EXPECT_EQ(report.at("outcome").get<std::string>(), "completed_with_skips");
@@ -143,7 +146,8 @@ TEST_F(Command, AbortExitsOne) {
   machine.replace(machine.find("ticks: 4,"), 9, "ticks: 4, throw_on: 2,");
   machine.replace(machine.find("failed: skip_target"), 19, "failed: abort");
   const fs::path mission = write_mission(machine);
-  ASSERT_EQ(projtour("run " + mission.string() + " --speed 0 --out " + (dir_ / "run").string()), 1)
+  ASSERT_EQ(projtour("run " + mission.string() + " --speed 1000 --out " + (dir_ / "run").string()),
+            1)
       << err();
   EXPECT_NE(err().find("aborted: tour/visit/work: failed: scripted failure on run 2"),
             std::string::npos)
@@ -237,6 +241,7 @@ TEST_F(Command, BadNumbersAndRepeatedOptionsExitTwoNamingTheOption) {
       {"--speed inf", "--speed"},
       {"--speed 1e999", "--speed"},
       {"--speed -1", "--speed"},
+      {"--speed 0", "--speed"},
       {"--watchdog-s nan", "--watchdog-s"},
       {"--watchdog-s -inf", "--watchdog-s"},
       {"--watchdog-s 0", "--watchdog-s"},
@@ -266,7 +271,7 @@ TEST_F(Command, PluginPathRepeatsAndTheLargestSeedIsWrittenUnsigned) {
   const fs::path run = dir_ / "run";
   ASSERT_EQ(
       projtour("run " + kSource + "/missions/scripted_tour.yaml --seed 18446744073709551615 " +
-               "--speed 0 --out " + run.string()),
+               "--speed 1000 --out " + run.string()),
       0)
       << err();
   EXPECT_NE(read_text(run / "report.json").find("\"seed\": 18446744073709551615,"),
@@ -293,9 +298,9 @@ TEST_F(Command, PluginsListsTheScriptedKinds) {
 TEST_F(Command, SameSeedSameEventsAndReport) {
   const fs::path mission = write_mission(kLinearMachine);
   for (const char* name : {"a", "b"}) {
-    ASSERT_EQ(
-        projtour("run " + mission.string() + " --seed 5 --speed 0 --out " + (dir_ / name).string()),
-        3);
+    ASSERT_EQ(projtour("run " + mission.string() + " --seed 5 --speed 1000 --out " +
+                       (dir_ / name).string()),
+              3);
   }
   EXPECT_EQ(read_text(dir_ / "a" / "events.jsonl"), read_text(dir_ / "b" / "events.jsonl"));
   Json a = read_json_file(dir_ / "a" / "report.json");
@@ -335,7 +340,8 @@ TEST_F(Command, InterruptThenResume) {
   }
   const std::size_t events_before = read_jsonl(run / "events.jsonl").size();
 
-  ASSERT_EQ(projtour("run " + mission + " --resume --speed 0 --out " + run.string()), 0) << err();
+  ASSERT_EQ(projtour("run " + mission + " --resume --speed 1000 --out " + run.string()), 0)
+      << err();
   const auto events = read_jsonl(run / "events.jsonl");
   ASSERT_GT(events.size(), events_before);
   const Json& first_new = events[events_before + 1];  // after "enter tour"
@@ -364,7 +370,8 @@ TEST_F(Command, WatchdogEndsABehaviourHungInTick) {
                   "failed: skip_target, timeout: skip_target}");
   const fs::path mission = write_mission(machine);
   const auto started = std::chrono::steady_clock::now();
-  ASSERT_EQ(projtour("run " + mission.string() + " --speed 0 --out " + (dir_ / "run").string()), 1)
+  ASSERT_EQ(projtour("run " + mission.string() + " --speed 1000 --out " + (dir_ / "run").string()),
+            1)
       << err();
   const double waited_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
@@ -536,6 +543,199 @@ TEST(ScriptedPlugin, MachineIsCheckedAgainstThePluginsDeclaredOutcomes) {
             "outcome \"lost\" (it declares: succeeded, no_frame)\n"
             "m.yaml:6:9: states.a.on: outcome \"no_frame\" of behaviour \"scripted_capture\" "
             "has no transition\n");
+}
+
+// ---- A run directory belongs to one run (issue 15) ----
+
+// Every file under `dir` with its bytes: what "changes nothing" compares.
+std::map<std::string, std::string> snapshot_of(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    files[fs::relative(e.path(), dir).string()] =
+        e.is_regular_file() ? read_text(e.path()) : std::string("<dir>");
+  }
+  return files;
+}
+
+TEST_F(Command, RunIntoADirectoryHoldingARunExitsTwoAndChangesNothing) {
+  const fs::path run = dir_ / "run";
+  const std::string mission = kSource + "/missions/scripted_tour.yaml";
+  ASSERT_EQ(projtour("run " + mission + " --speed 1000 --out " + run.string()), 0) << err();
+  const auto before = snapshot_of(run);
+  ASSERT_EQ(projtour("run " + mission + " --speed 1000 --out " + run.string()), 2);
+  EXPECT_NE(err().find("projtour: " + run.string() + " already holds files (checkpoint.json, "),
+            std::string::npos)
+      << err();
+  EXPECT_NE(err().find("continue its run with --resume, or choose another --out"),
+            std::string::npos);
+  EXPECT_EQ(snapshot_of(run), before);
+  // A directory of someone else's files is not a run's either, and is left alone.
+  const fs::path other = dir_ / "other";
+  fs::create_directories(other);
+  std::ofstream(other / "notes.txt") << "mine";
+  ASSERT_EQ(projtour("run " + mission + " --speed 1000 --out " + other.string()), 2);
+  EXPECT_EQ(snapshot_of(other), (std::map<std::string, std::string>{{"notes.txt", "mine"}}));
+}
+
+TEST_F(Command, EmptyOutIsAnError) {
+  ASSERT_EQ(projtour("run " + kSource + "/missions/scripted_tour.yaml --speed 1000 --out ''"), 2);
+  EXPECT_NE(err().find("--out \"\" names no directory"), std::string::npos) << err();
+}
+
+// A second run, or a resume, on a directory a run holds exits 2 at once naming the holder.
+TEST_F(Command, SecondRunOrResumeOnALockedDirectoryNamesTheHolder) {
+  const fs::path run = dir_ / "run";
+  const std::string mission = kSource + "/missions/scripted_tour.yaml";
+  test::ChildOptions options = command("run " + mission + " --speed 4 --out " + run.string(), "1");
+  options.stop_after_write = "\"state\": \"tour/visit/aim\"";
+  test::Child holder(options);
+  ASSERT_TRUE(holder.wait_stopped(std::chrono::seconds(30))) << holder.err();
+  const std::string named = "is in use by another projtour run (pid " +
+                            std::to_string(holder.pid()) +
+                            "): one run directory, one run at a time";
+  const auto started = std::chrono::steady_clock::now();
+  EXPECT_EQ(projtour("run " + mission + " --speed 1000 --out " + run.string()), 2);
+  EXPECT_NE(err().find(named), std::string::npos) << err();
+  EXPECT_EQ(projtour("run " + mission + " --resume --speed 1000 --out " + run.string()), 2);
+  EXPECT_NE(err().find(named), std::string::npos) << err();
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(),
+            10.0);
+  holder.resume();
+  EXPECT_EQ(holder.wait(std::chrono::seconds(60)), 0) << holder.err();
+  // The holder's events are its own: one tour, entered once.
+  std::size_t tours = 0;
+  for (const Json& e : read_jsonl(run / "events.jsonl")) {
+    tours += e.at("event") == "enter" && e.at("state") == "tour";
+  }
+  EXPECT_EQ(tours, 1u);
+}
+
+// A symbolic link planted in a run directory is an error on resume, never written through.
+TEST_F(Command, PlantedSymlinkIsRefusedNotWrittenThrough) {
+  const fs::path run = dir_ / "run";
+  const std::string mission = kSource + "/missions/scripted_tour.yaml";
+  {
+    test::ChildOptions options =
+        command("run " + mission + " --speed 4 --out " + run.string(), "1");
+    options.stop_after_write = "\"state\": \"tour/visit/aim\", \"target\": \"pillar\"";
+    test::Child child(options);
+    ASSERT_TRUE(child.wait_stopped(std::chrono::seconds(30))) << child.err();
+    child.signal(SIGINT);
+    child.resume();
+    ASSERT_EQ(child.wait(std::chrono::seconds(60)), 130) << child.err();
+  }
+  const fs::path victim = dir_ / "victim.json";
+  fs::remove(run / "report.json");
+  fs::create_symlink(victim, run / "report.json");
+  ASSERT_EQ(projtour("run " + mission + " --resume --speed 1000 --out " + run.string()), 2);
+  EXPECT_NE(err().find((run / "report.json").string() + " is a symbolic link"), std::string::npos)
+      << err();
+  EXPECT_FALSE(fs::exists(victim));
+  // The writer refuses one too, should a link appear after the run claimed its directory.
+  fs::create_symlink(victim, dir_ / "late.json");
+  EXPECT_THROW(write_run_file(dir_ / "late.json", "x"), std::runtime_error);
+  EXPECT_THROW(AppendOnlyFile(dir_ / "late.json").append("x"), std::runtime_error);
+  EXPECT_FALSE(fs::exists(victim));
+}
+
+// An append-only log keeps what it holds: a resumed run continues it.
+TEST_F(Command, AppendOnlyFileContinuesAndNeverTruncates) {
+  const fs::path log = dir_ / "log.jsonl";
+  AppendOnlyFile(log).append("one\n");
+  AppendOnlyFile(log).append("two\n");
+  EXPECT_EQ(read_text(log), "one\ntwo\n");
+}
+
+// Regression: every --resume truncated the simulated projector's log.
+TEST_F(Command, ResumeAppendsTheSimulatedProjectorLog) {
+  const fs::path run = dir_ / "run";
+  const std::string mission = kSource + "/missions/minimal.yaml";
+  {
+    test::ChildOptions options =
+        command("run " + mission + " --dry-run --out " + run.string(), "1");
+    options.stop_after_write = "\"state\": \"tour/visit/verify\"";
+    test::Child child(options);
+    ASSERT_TRUE(child.wait_stopped(std::chrono::seconds(60))) << child.err();
+    child.signal(SIGINT);
+    child.resume();
+    ASSERT_EQ(child.wait(std::chrono::seconds(60)), 130) << child.err();
+  }
+  const std::string first = read_text(run / "sim_projector_log.jsonl");
+  const std::string first_events = read_text(run / "events.jsonl");
+  ASSERT_FALSE(first.empty());
+  ASSERT_EQ(projtour("run " + mission + " --dry-run --resume --out " + run.string()), 0) << err();
+  const std::string both = read_text(run / "sim_projector_log.jsonl");
+  EXPECT_GT(both.size(), first.size());
+  EXPECT_EQ(both.substr(0, first.size()), first);
+  EXPECT_EQ(read_text(run / "events.jsonl").substr(0, first_events.size()), first_events);
+}
+
+// Regression: at --speed 0.01 SIGTERM took 7.6 s to act, at 1e-9 never (the pacing sleep did
+// not look at the signal). Measured from the signal to the cancel the tick loop prints.
+TEST_F(Command, SignalActsWithinATenthOfASecondAtAnySpeed) {
+  const std::string mission = kSource + "/missions/minimal.yaml";
+  for (const char* speed : {"0.01", "1e-9"}) {
+    const fs::path run = dir_ / (std::string("run") + speed);
+    test::ChildOptions options =
+        command("run " + mission + " --dry-run --speed " + speed + " --out " + run.string(), speed);
+    options.stop_after_write = "\"state\": \"tour/visit/navigate\"";
+    test::Child child(options);
+    ASSERT_TRUE(child.wait_stopped(std::chrono::seconds(60))) << child.err();
+    child.resume();
+    ::usleep(300 * 1000);  // well inside a pacing sleep of the next tick
+    const auto signalled = std::chrono::steady_clock::now();
+    child.signal(SIGTERM);
+    while (child.err().find("interrupted; cancelling") == std::string::npos &&
+           !child.poll().has_value()) {
+      ::usleep(1000);
+    }
+    const double acted_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - signalled)
+            .count();
+    EXPECT_NE(child.err().find("interrupted; cancelling"), std::string::npos) << child.err();
+    EXPECT_LT(acted_ms, 100.0) << "--speed " << speed;
+    EXPECT_EQ(child.wait(std::chrono::seconds(30)), 130) << child.err();
+  }
+}
+
+TEST_F(Command, SpeedBelowOneOnlyInADryRun) {
+  ASSERT_EQ(projtour("run " + kSource + "/missions/scripted_tour.yaml --speed 0.5 --out " +
+                     (dir_ / "run").string()),
+            2);
+  EXPECT_NE(err().find("--speed below 1 only in a dry run"), std::string::npos) << err();
+  EXPECT_FALSE(fs::exists(dir_ / "run"));
+}
+
+// A write that fails (here a file-size limit, as a full disk) is reported and ends the run as
+// failed, with what could still be written.
+TEST_F(Command, AFailedWriteEndsTheRunAsFailed) {
+  const fs::path run = dir_ / "run";
+  test::ChildOptions options = command("", "1");
+  const std::string projtour_line = [&] {
+    std::string line;
+    for (const std::string& word :
+         test::projtour_command(test::shell_words("run " + kSource +
+                                                  "/missions/scripted_tour.yaml "
+                                                  "--speed 1000 --out " +
+                                                  run.string() + " --plugin-path " + kPluginPath))
+             .argv) {
+      line += "'" + word + "' ";
+    }
+    return line;
+  }();
+  options.argv = {"/bin/sh", "-c", "trap '' XFSZ; ulimit -f 2; exec " + projtour_line};
+  EXPECT_EQ(test::run(options).status, 1);
+  const std::string err1 = read_text(dir_ / "stderr1.txt");
+  EXPECT_NE(err1.find("projtour: run failed: cannot write " + (run / "events.jsonl").string() +
+                      ": File too large"),
+            std::string::npos)
+      << err1;
+  const Json report = read_json_file(run / "report.json");
+  EXPECT_EQ(report.at("outcome").get<std::string>(), "aborted");
+  EXPECT_EQ(report.at("reason").get<std::string>(),
+            "cannot write " + (run / "events.jsonl").string() + ": File too large");
+  const std::string safe_stops = read_text(run / "test_drivers.log");
+  EXPECT_NE(safe_stops.find("test_base safe_stop"), std::string::npos) << safe_stops;
 }
 
 }  // namespace

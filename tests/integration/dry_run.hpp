@@ -19,7 +19,7 @@ using test::read_text;
 
 fs::path data_dir();  // tests/integration/data
 
-// A dry run of `mission` in `world` writing to `out` at --speed 0 unless `extra` (--seed,
+// A dry run of `mission` in `world` writing to `out`, unpaced unless `extra` (--seed,
 // --resume, --speed) gives another.
 std::vector<std::string> dry_run_args(const fs::path& mission, const fs::path& world,
                                       const fs::path& out,

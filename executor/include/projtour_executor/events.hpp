@@ -1,10 +1,10 @@
 #pragma once
 // What the executor tells its observers: every enter, exit, outcome and transition, and every
 // finished target. events.jsonl, the progress display and the tests' recorder are observers.
-#include <fstream>
 #include <optional>
 #include <string>
 
+#include "projtour/run_files.hpp"
 #include "projtour_executor/json_io.hpp"
 #include "projtour_executor/target_record.hpp"
 
@@ -33,15 +33,18 @@ class ExecutorObserver {
   virtual void on_target_done(const TargetRecord& record) { (void)record; }
 };
 
-// events.jsonl: one object per line, flushed per line so an interrupted run keeps its events.
+// events.jsonl: one object per line, each written whole so an interrupted run keeps its events.
+// The file is only ever appended to (a resumed run continues it; a fresh run's directory holds
+// none). A write that fails is not retried: error() says why, for the run to end on it.
 class JsonlEventWriter : public ExecutorObserver {
  public:
-  // append: continue a file (resume).
-  JsonlEventWriter(const std::filesystem::path& file, bool append);
+  explicit JsonlEventWriter(const std::filesystem::path& file);  // throws std::runtime_error
   void on_event(const ExecutorEvent& event) override;
+  const std::string& error() const { return error_; }
 
  private:
-  std::ofstream out_;
+  AppendOnlyFile out_;
+  std::string error_;
 };
 
 }  // namespace projtour

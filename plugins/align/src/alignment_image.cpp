@@ -5,6 +5,8 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "projtour/run_image.hpp"
+
 namespace projtour::align {
 namespace {
 
@@ -108,9 +110,7 @@ void write_alignment_image(const std::filesystem::path& file, const DepthFrame& 
   label(T_camera_model_aligned ? "model aligned" : "not aligned", 60, kGreen);
   cv::putText(img, "side view (depth to the right)", {kPanel + 8, 20}, cv::FONT_HERSHEY_SIMPLEX,
               0.5, cv::Scalar(200, 200, 200), 1, cv::LINE_AA);
-  if (!cv::imwrite(file.string(), img)) {
-    throw std::runtime_error("cannot write " + file.string());
-  }
+  write_run_image(file, img);
 }
 
 }  // namespace projtour::align

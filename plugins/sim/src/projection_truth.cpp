@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "projtour/geometry.hpp"
+#include "projtour/run_image.hpp"
 #include "sim_internal.hpp"
 
 namespace projtour::sim {
@@ -281,9 +282,7 @@ void write_projection_view(const Scene& alone, const Eigen::Isometry3d& T_map_mo
     }
     cv::hconcat(image, right, image);
   }
-  if (!cv::imwrite(file.string(), image)) {
-    throw std::runtime_error("cannot write " + file.string());
-  }
+  write_run_image(file, image);
 }
 
 }  // namespace projtour::sim

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <iostream>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -25,6 +26,7 @@
 #include "projtour/kinematics.hpp"
 #include "projtour/model.hpp"
 #include "projtour/occupancy_map.hpp"
+#include "projtour/run_files.hpp"
 #include "projtour_sim/colour_renderer.hpp"
 #include "projtour_sim/depth_renderer.hpp"
 #include "projtour_sim/kinect_noise.hpp"
@@ -276,7 +278,7 @@ struct SimWorld::Impl {
   std::optional<std::size_t> last_lit;  // the target whose last_frame is raw
   std::vector<ProjectorEvent> projector_log;
   double lit_moving_s = 0.0;
-  std::ofstream projector_jsonl;
+  AppendOnlyFile projector_jsonl;  // appended on resume, like events.jsonl
 
   Target* target(const std::string& id) {
     for (auto& t : targets) {
@@ -788,13 +790,20 @@ struct SimWorld::Impl {
     const Target* t = active();
     ProjectorEvent e{t_s, shown, moving, head_moving_now, t ? t->spec->id : std::string()};
     projector_log.push_back(e);
-    if (projector_jsonl) {
-      projector_jsonl << "{\"t\": " << e.t_s << ", \"event\": \"" << (shown ? "show" : "blank")
-                      << "\", \"base_moving\": " << (e.base_moving ? "true" : "false")
-                      << ", \"head_moving\": " << (e.head_moving ? "true" : "false")
-                      << ", \"target\": "
-                      << (e.target.empty() ? std::string("null") : "\"" + e.target + "\"") << "}\n";
-      projector_jsonl.flush();
+    if (projector_jsonl.is_open()) {
+      std::ostringstream line;
+      line << "{\"t\": " << e.t_s << ", \"event\": \"" << (shown ? "show" : "blank")
+           << "\", \"base_moving\": " << (e.base_moving ? "true" : "false")
+           << ", \"head_moving\": " << (e.head_moving ? "true" : "false")
+           << ", \"target\": " << (e.target.empty() ? std::string("null") : "\"" + e.target + "\"")
+           << "}\n";
+      // Called from the safe stop too, which must not throw: the log stops, said once.
+      try {
+        projector_jsonl.append(line.str());
+      } catch (const std::exception& error) {
+        std::cerr << "projtour: sim: " << error.what() << "; the projector log stops here\n";
+        projector_jsonl = AppendOnlyFile();
+      }
     }
   }
 };
@@ -1183,10 +1192,8 @@ void SimWorld::set_max_incidence_deg(double deg) {
 }
 
 void SimWorld::set_projector_log_file(const std::filesystem::path& file) {
-  std::error_code ec;
-  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), ec);
-  impl_->projector_jsonl = std::ofstream(file, std::ios::trunc);
-  if (!impl_->projector_jsonl) throw std::runtime_error("cannot write " + file.string());
+  if (file.has_parent_path()) make_run_directory(file.parent_path());
+  impl_->projector_jsonl = AppendOnlyFile(file);
 }
 
 std::optional<LaserScan> SimWorld::take_scan() {
@@ -1462,7 +1469,7 @@ void SimWorld::write_projection_views(
   const Eigen::Isometry3d& T_map_model = impl_->object(*t).T_map_model;
   const Scene& alone = impl_->alone(*t);
   const cv::Mat colour_view = impl_->colour_panel(*t, observed_colour_px);
-  std::filesystem::create_directories(dir);
+  make_run_directory(dir);
   write_projection_view(
       alone, T_map_model,
       true_projection(*t->spec, T_map_model, alone, T_map_projector, k, pixels_before_align),

@@ -1,0 +1,39 @@
+#pragma once
+// The run directory belongs to one run: claimed before anything is written, locked for the
+// run's life, and refused when it already holds another run's files.
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+namespace projtour {
+
+// Why a directory cannot be this run's (exit 2: nothing was written, nothing moved).
+struct RunDirectoryError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class RunDirectory {
+ public:
+  // `out`: the --out directory, or none for a fresh runs/<mission>-<YYYYmmdd-HHMMSS>[-N] (N from
+  // 2 when runs start in the same second). Without `resume` the directory must be new or empty
+  // (and is left as it was when it is not); with it, it must hold no symbolic link anywhere
+  // (a planted link would be written through). Either way it is locked (`.lock`, flock, holding
+  // the pid) until this object is gone or the process ends, however it ends.
+  static RunDirectory claim(const std::optional<std::filesystem::path>& out, bool resume,
+                            const std::string& mission_name);
+  RunDirectory(RunDirectory&& other) noexcept;
+  RunDirectory& operator=(RunDirectory&&) = delete;
+  RunDirectory(const RunDirectory&) = delete;
+  ~RunDirectory();
+
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  RunDirectory(std::filesystem::path path, int lock_fd)
+      : path_(std::move(path)), lock_fd_(lock_fd) {}
+  std::filesystem::path path_;
+  int lock_fd_ = -1;
+};
+
+}  // namespace projtour
