@@ -94,7 +94,7 @@ void print_plugin_listing(const PluginRegistry& registry, std::ostream& out) {
 }
 
 int run_plugins_command(const std::vector<std::filesystem::path>& cli_paths, std::ostream& out,
-                        std::ostream& err) {
+                        std::ostream& err, const PluginLoadOptions& load_options) {
   const auto dirs = PluginRegistry::search_path(cli_paths);
   out << "search path:\n";
   for (const auto& dir : dirs) {
@@ -102,11 +102,14 @@ int run_plugins_command(const std::vector<std::filesystem::path>& cli_paths, std
     out << "  " << dir.string() << (std::filesystem::is_directory(dir, ec) ? "" : " (missing)")
         << "\n";
   }
-  PluginRegistry registry;
+  PluginRegistry registry(load_options);
   const auto failures = registry.load_directories(dirs);
   out << "\n";
   print_plugin_listing(registry, out);
   for (const auto& failure : failures) err << "projtour: plugins: " << failure << "\n";
+  for (const auto& replaced : registry.warnings()) {
+    err << "projtour: plugins: warning: " << replaced << "\n";
+  }
   return failures.empty() ? 0 : 1;
 }
 

@@ -1,6 +1,7 @@
 // `projtour plugins`: the listing of the fixture plugins.
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <sstream>
 
 #include "fixture_support.hpp"
@@ -97,6 +98,45 @@ TEST(PluginListing, CommandReportsSearchPathAndFailures) {
                            std::to_string(PROJTOUR_ABI_VERSION) + "\n"),
             std::string::npos)
       << err.str();
+}
+
+// A writable directory is an error of the command (exit 1); the option lets the same call list it.
+TEST(PluginListing, WritableDirectoryFailsTheCommandUnlessAllowed) {
+  projtour::testing::TempDir dir;
+  fs::copy_file(fixture("pt_fixture_good"), dir / "libpt_fixture_good.so");
+  fs::permissions(dir.path(), fs::perms::all);
+  std::ostringstream out;
+  std::ostringstream err;
+  EXPECT_EQ(projtour::run_plugins_command({dir.path()}, out, err), 1);
+  EXPECT_NE(err.str().find("projtour: plugins: " + dir.path().string() +
+                           ": plugin directory is world-writable (mode 0777)"),
+            std::string::npos)
+      << err.str();
+  EXPECT_EQ(out.str().find("fixture_wait (behaviour)"), std::string::npos) << out.str();
+
+  std::ostringstream allowed_out;
+  std::ostringstream allowed_err;
+  EXPECT_EQ(projtour::run_plugins_command({dir.path()}, allowed_out, allowed_err,
+                                          projtour::PluginLoadOptions{true}),
+            0)
+      << allowed_err.str();
+  EXPECT_NE(allowed_out.str().find("\nfixture_wait (behaviour)\n"), std::string::npos);
+}
+
+// A broken copy that a good one further down replaced costs nothing: a warning, exit 0.
+TEST(PluginListing, ReplacedBrokenFileIsAWarning) {
+  projtour::testing::TempDir first("first");
+  projtour::testing::TempDir second("second");
+  std::ofstream(first / "libpt_fixture_good.so") << "not a library";
+  fs::copy_file(fixture("pt_fixture_good"), second / "libpt_fixture_good.so");
+  std::ostringstream out;
+  std::ostringstream err;
+  EXPECT_EQ(projtour::run_plugins_command({first.path(), second.path()}, out, err), 0);
+  EXPECT_EQ(err.str(), "projtour: plugins: warning: " + (first / "libpt_fixture_good.so").string() +
+                           ": not an ELF shared object (no ELF header) (" +
+                           (second / "libpt_fixture_good.so").string() +
+                           " further down the path was loaded instead)\n");
+  EXPECT_NE(out.str().find("\nfixture_wait (behaviour)\n"), std::string::npos);
 }
 
 }  // namespace

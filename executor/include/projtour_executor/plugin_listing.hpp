@@ -14,8 +14,9 @@ void print_plugin_listing(const PluginRegistry& registry, std::ostream& out);
 
 // The whole subcommand: loads every plugin on PluginRegistry::search_path(cli_paths), prints
 // the directories searched and the listing to `out`, and each file that failed to load to
-// `err`. Returns the exit status: 0, or 1 when any file failed to load.
+// `err` (a broken file whose name a later directory provided as a warning). Returns the exit
+// status: 0, or 1 when any file or directory failed to load.
 int run_plugins_command(const std::vector<std::filesystem::path>& cli_paths, std::ostream& out,
-                        std::ostream& err);
+                        std::ostream& err, const PluginLoadOptions& load_options = {});
 
 }  // namespace projtour

@@ -34,6 +34,8 @@ struct RunOptions {
   // Mission seconds per wall second; 0 = as fast as possible. Default: 0 in a dry run, else 1.
   std::optional<double> speed;
   std::vector<std::filesystem::path> plugin_paths;
+  // Loads plugins from directories and libraries others may write (PluginLoadOptions).
+  bool allow_writable_plugin_path = false;
   double tick_hz = 20.0;
   double cancel_grace_s = 2.0;
   // Wall-clock limit for one tick of a state without timeout_s (states with one use it).
