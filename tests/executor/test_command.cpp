@@ -577,6 +577,34 @@ TEST_F(Command, RunIntoADirectoryHoldingARunExitsTwoAndChangesNothing) {
   EXPECT_EQ(snapshot_of(other), (std::map<std::string, std::string>{{"notes.txt", "mine"}}));
 }
 
+// Regression: two runs without --out started in the same second shared one directory.
+TEST_F(Command, DefaultRunDirectoriesAreUniqueForRunsStartedTogether) {
+  const std::string line = [&] {
+    std::string words;
+    for (const std::string& word :
+         test::projtour_command(test::shell_words("run " + kSource +
+                                                  "/missions/scripted_tour.yaml --speed 1000 "
+                                                  "--plugin-path " +
+                                                  kPluginPath))
+             .argv) {
+      words += "'" + word + "' ";
+    }
+    return words;
+  }();
+  test::ChildOptions options = command("", "1");
+  options.argv = {"/bin/sh", "-c",
+                  "cd '" + dir_.string() + "' && { " + line + "& " + line + "& wait; }"};
+  EXPECT_EQ(test::run(options).status, 0) << read_text(dir_ / "stderr1.txt");
+  std::vector<fs::path> runs;
+  for (const auto& e : fs::directory_iterator(dir_ / "runs")) runs.push_back(e.path());
+  ASSERT_EQ(runs.size(), 2u);
+  for (const fs::path& run : runs) {
+    EXPECT_EQ(read_json_file(run / "report.json").at("outcome").get<std::string>(), "completed")
+        << run;
+    EXPECT_EQ(read_jsonl(run / "events.jsonl").front().at("state").get<std::string>(), "tour");
+  }
+}
+
 TEST_F(Command, EmptyOutIsAnError) {
   ASSERT_EQ(projtour("run " + kSource + "/missions/scripted_tour.yaml --speed 1000 --out ''"), 2);
   EXPECT_NE(err().find("--out \"\" names no directory"), std::string::npos) << err();
