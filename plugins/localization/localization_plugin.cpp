@@ -106,8 +106,12 @@ class MrptLocalization : public Service {
 int validate(const void* raw, char* error, size_t error_size) {
   const Params& p = *static_cast<const Params*>(raw);
   std::string why;
-  if (p.integer("particles") < 10)
-    why = "particles: expected at least 10";
+  // A million particles take about 3 s an update: no tour keeps up with that (40,000 localize
+  // a robot over a whole campus from nothing).
+  constexpr long long kMaxParticles = 1000000;
+  if (p.integer("particles") < 10 || p.integer("particles") > kMaxParticles)
+    why = "particles: expected from 10 to " + std::to_string(kMaxParticles) + ", got " +
+          std::to_string(p.integer("particles"));
   else if (p.integer("lf_decimation") < 1)
     why = "lf_decimation: expected at least 1";
   else if (p.integer("update_every_scans") < 1)

@@ -363,8 +363,8 @@ TEST_F(MissionLoader, MissingRobotFile) {
 TEST_F(MissionLoader, ModelOfUnknownFormat) {
   write("bunny.obj", "v 0 0 0\n");
   EXPECT_THAT(mission_errors(replace(kMission, "model: bunny.ply", "model: bunny.obj")),
-              ElementsAre(dir + "/m.yaml:7:12: targets[0].model: expected a model file (.ply, "
-                                ".pcd or .off), got \"bunny.obj\""));
+              ElementsAre(dir + "/m.yaml:7:12: targets[0].model: expected a model file (.ply or "
+                                ".off), got \"bunny.obj\""));
 }
 
 TEST_F(MissionLoader, ContentThatIsNoImage) {
@@ -451,6 +451,21 @@ TEST_F(MissionLoader, NegativeStandoff) {
 TEST_F(MissionLoader, ZeroDwell) {
   EXPECT_THAT(mission_errors(replace(kMission, "dwell_s: 15", "dwell_s: 0")),
               ElementsAre(dir + "/m.yaml:12:14: targets[0].dwell_s: expected a number > 0, got 0"));
+}
+
+// Numbers no tour can use: a dwell of 10^9 s never ends, a stand-off of a kilometre never
+// arrives, a tolerance of 10 m verifies anything.
+TEST_F(MissionLoader, AbsurdDwellStandoffAndTolerance) {
+  EXPECT_THAT(mission_errors(replace(kMission, "dwell_s: 15", "dwell_s: 1e9")),
+              ElementsAre(dir + "/m.yaml:12:14: targets[0].dwell_s: expected a number > 0 and at "
+                                "most 86400, got 1e9"));
+  EXPECT_THAT(mission_errors(replace(kMission, "standoff_m: 1.2", "standoff_m: 1000")),
+              ElementsAre(dir + "/m.yaml:11:17: targets[0].standoff_m: expected a number > 0 and "
+                                "at most 20, got 1000"));
+  EXPECT_THAT(
+      mission_errors(replace(kMission, "dwell_s: 15", "dwell_s: 15\n    tolerance_mm: 10000")),
+      ElementsAre(dir + "/m.yaml:13:19: targets[0].tolerance_mm: expected a number > 0 and at "
+                        "most 1000, got 10000"));
 }
 
 TEST_F(MissionLoader, ToleranceNotPositiveOrNotANumber) {

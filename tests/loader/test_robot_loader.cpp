@@ -290,8 +290,8 @@ TEST_F(RobotLoader, BadColourCameraValues) {
   const std::vector<BadValue> cases = {
       {"    width: 0\n", "21:12: camera.colour.width: expected an integer > 0, got 0"},
       {"    height: 480.5\n", "21:13: camera.colour.height: expected an integer, got \"480.5\""},
-      {"    width: 20000\n",
-       "21:12: camera.colour.width: expected at most 16384 pixels, got 20000"},
+      {"    width: 16384\n", "21:12: camera.colour.width: expected at most 8192 pixels, got 16384"},
+      {"    width: 20000\n", "21:12: camera.colour.width: expected at most 8192 pixels, got 20000"},
       {"    fx: -525\n", "21:9: camera.colour.fx: expected a number > 0, got -525"},
       {"    fy: 0\n", "21:9: camera.colour.fy: expected a number > 0, got 0"},
       {"    cx: 700\n",

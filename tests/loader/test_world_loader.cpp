@@ -17,7 +17,7 @@ model_error: {enabled: false, noise_mm: 2}
 calibration_error: {trans_mm: 3, rot_deg: 0.3}
 faults:
   - {target: rabbit, type: frame_dropout, fraction: 0.5}
-  - {target: hare, type: kidnap, distance_m: 1.0, at_s: 20}
+  - {target: hare, type: kidnap, distance_m: 1.0}
 )";
 
 class WorldLoader : public LoaderTest {
@@ -66,8 +66,7 @@ TEST_F(WorldLoader, AllValues) {
   EXPECT_EQ(world->faults[0].type, "frame_dropout");
   EXPECT_EQ(world->faults[0].values, (std::map<std::string, double>{{"fraction", 0.5}}));
   EXPECT_EQ(world->faults[1].type, "kidnap");
-  EXPECT_EQ(world->faults[1].values,
-            (std::map<std::string, double>{{"distance_m", 1.0}, {"at_s", 20.0}}));
+  EXPECT_EQ(world->faults[1].values, (std::map<std::string, double>{{"distance_m", 1.0}}));
   EXPECT_EQ(world->faults[1].mark.line, 11);
 }
 
@@ -179,8 +178,8 @@ TEST_F(WorldLoader, FaultValueNotANumber) {
 
 // A pole fault as the third fault, on line 12.
 std::string with_pole(const std::string& numbers) {
-  return replace(kWorld, "at_s: 20}\n",
-                 "at_s: 20}\n  - {target: rabbit, type: pole, " + numbers + "}\n");
+  return replace(kWorld, "distance_m: 1.0}\n",
+                 "distance_m: 1.0}\n  - {target: rabbit, type: pole, " + numbers + "}\n");
 }
 
 TEST_F(WorldLoader, PoleFault) {
@@ -216,6 +215,14 @@ TEST_F(WorldLoader, PoleUnknownKeySuggests) {
   EXPECT_THAT(world_errors(with_pole("distance_m: 0.6, diamter_m: 0.05")),
               ElementsAre(dir + "/w.yaml:12:51: faults[2].diamter_m: unknown key \"diamter_m\"; "
                                 "did you mean \"diameter_m\"?"));
+}
+
+// Every fault type's keys are the simulator's: a misspelt one used to leave the fault at its
+// default without a word.
+TEST_F(WorldLoader, MisspeltFaultKeyIsAnError) {
+  EXPECT_THAT(world_errors(replace(kWorld, "kidnap, distance_m: 1.0", "kidnap, distanse_m: 1.0")),
+              ElementsAre(dir + "/w.yaml:11:34: faults[1].distanse_m: unknown key \"distanse_m\"; "
+                                "did you mean \"distance_m\"?"));
 }
 
 TEST_F(WorldLoader, PoleValueNotANumber) {

@@ -13,7 +13,15 @@ using loader::lower_extension;
 using loader::read_number;
 using loader::Sign;
 
-const std::vector<std::string> kModelExtensions = {".ply", ".pcd", ".off"};
+// Meshes only: the simulator renders the surface and the Model Points are checked against it
+// before a run (a point cloud has no surface to be on).
+const std::vector<std::string> kModelExtensions = {".ply", ".off"};
+// Bounds no tour reaches, so a typo (a dwell in milliseconds, a stand-off in centimetres) is an
+// error now rather than a tour that never ends or a robot that never arrives: a day of dwell at
+// one target, a stand-off beyond any depth camera's range, a tolerance of a metre.
+constexpr double kMaxDwellS = 86400.0;
+constexpr double kMaxStandoffM = 20.0;
+constexpr double kMaxToleranceMm = 1000.0;
 const std::vector<std::string> kImageExtensions = {".png", ".jpg", ".jpeg", ".bmp"};
 const std::vector<std::string> kVideoExtensions = {".mp4", ".avi", ".mkv", ".webm"};
 
@@ -43,6 +51,17 @@ std::optional<std::filesystem::path> read_typed_path(const YamlField& f,
     return std::nullopt;
   }
   return f.as_path(true, true);
+}
+
+// A number > 0 and at most `most`.
+std::optional<double> read_bounded(const YamlField& f, double most) {
+  const auto v = read_number(f, false, Sign::positive);
+  if (v && *v > most) {
+    f.error("expected a number > 0 and at most " + loader::format_number(most) + ", got " +
+            f.node().Scalar());
+    return std::nullopt;
+  }
+  return v;
 }
 
 // Paths, marks and the checks that need more than one field of a mission.
@@ -141,11 +160,9 @@ class MissionReader {
     if (auto T = loader::read_pose(note(f["pose"]))) target.T_map_model = *T;
     read_model_points(note(f["model_points"]), target);
     if (auto path = read_content(note(f["content"]))) target.content = *path;
-    if (auto v = read_number(note(f["standoff_m"]), false, Sign::positive)) target.standoff_m = *v;
-    if (auto v = read_number(note(f["dwell_s"]), false, Sign::positive)) target.dwell_s = *v;
-    if (auto v = read_number(note(f["tolerance_mm"]), false, Sign::positive)) {
-      target.tolerance_mm = *v;
-    }
+    if (auto v = read_bounded(note(f["standoff_m"]), kMaxStandoffM)) target.standoff_m = *v;
+    if (auto v = read_bounded(note(f["dwell_s"]), kMaxDwellS)) target.dwell_s = *v;
+    if (auto v = read_bounded(note(f["tolerance_mm"]), kMaxToleranceMm)) target.tolerance_mm = *v;
 
     if (diag_.error_count() > errors_before) return std::nullopt;
     return target;
@@ -160,7 +177,7 @@ class MissionReader {
       ok = false;
     }
     for (std::size_t i = 0; i < f.size(); ++i) {
-      const auto p = loader::read_numbers<3>(f[i], true, "[x, y, z]");
+      const auto p = loader::read_numbers<3>(note(f[i]), true, "[x, y, z]");
       if (!p) {
         ok = false;
       } else if (i < 4) {

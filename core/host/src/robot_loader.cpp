@@ -14,8 +14,9 @@ using loader::read_integer;
 using loader::read_number;
 using loader::Sign;
 
-// Larger images are a typo (or an overflow waiting to happen in int pixel arithmetic).
-constexpr long long kMaxImageSide = 16384;
+// Larger images are a typo: twice an 8K sensor's width, and a depth frame of 8192x8192 is already
+// a quarter of a gigabyte a frame (and 16384 sides overflow int pixel arithmetic).
+constexpr long long kMaxImageSide = 8192;
 
 void read_base(const YamlField& f, BaseSpec& base) {
   if (!f.expect_map()) return;

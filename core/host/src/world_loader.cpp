@@ -16,13 +16,28 @@ const std::vector<std::string> kFaultTypes = {
     "kidnap",        "camera_disconnect", "projector_failure", "target_nudge",
     "pole",          "daylight",          "person_crossing",   "person_standing"};
 
-// Fault types whose numbers are checked here, by name and sign. The others' numbers need only be
-// numbers (what they mean is the simulator's business, and older files carry unused ones).
+// Every fault type's numbers, by name and sign, as the simulator reads them: any other key is an
+// error (a misspelt one would silently leave the fault at its default).
 struct FaultNumber {
   const char* key;
   Sign sign;
 };
 const std::map<std::string, std::vector<FaultNumber>> kCheckedFaults = {
+    {"frame_dropout", {{"fraction", Sign::non_negative}}},
+    {"target_missing", {}},
+    {"occluder",
+     {{"distance_m", Sign::positive}, {"width_m", Sign::positive}, {"height_m", Sign::positive}}},
+    {"blocked_path", {{"size_m", Sign::positive}}},
+    {"kidnap", {{"distance_m", Sign::positive}}},
+    {"camera_disconnect", {{"after_frames", Sign::non_negative}}},
+    {"projector_failure", {{"after_shows", Sign::non_negative}}},
+    {"target_nudge",
+     {{"after_s", Sign::non_negative},
+      {"distance_m", Sign::non_negative},
+      {"direction_deg", Sign::any},
+      {"dx_m", Sign::any},
+      {"dy_m", Sign::any},
+      {"yaw_deg", Sign::any}}},
     {"pole",
      {{"distance_m", Sign::positive}, {"diameter_m", Sign::positive}, {"offset_m", Sign::any}}},
     {"daylight", {{"lux", Sign::positive}}},
