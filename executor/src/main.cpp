@@ -23,6 +23,8 @@ const char* const kUsage =
     "  projtour validate MISSION.yaml [--dry-run] [--world W.yaml] [--plugin-path DIR]...\n"
     "  projtour graph MISSION.yaml [--plugin-path DIR]...\n"
     "  projtour plugins [--plugin-path DIR]...\n"
+    "    (each command with --plugin-path also takes --allow-writable-plugin-path: load from\n"
+    "     directories and libraries that others than their owner and root may write)\n"
     "  projtour localize --map M.yaml --rawlog R.rawlog --init X,Y,YAW_DEG [--out T.tum]\n"
     "exit status: 0 all projected, 3 finished with skips, 2 invalid input, 130 interrupted,\n"
     "             1 aborted by a failure\n";
@@ -43,7 +45,8 @@ enum Option {
 };
 
 // Parses a mission subcommand's arguments (argv[2]...); `options` is a mask of what this
-// subcommand takes, --plugin-path always. Every option but --plugin-path may be given once.
+// subcommand takes, --plugin-path and --allow-writable-plugin-path always. Every option but
+// --plugin-path may be given once.
 projtour::RunOptions parse_options(int argc, char** argv, int options) {
   const std::string command = argv[1];
   projtour::RunOptions run;
@@ -83,6 +86,7 @@ projtour::RunOptions parse_options(int argc, char** argv, int options) {
   }
   std::vector<std::string> plugin_paths;
   app.add_option("--plugin-path", plugin_paths)->type_name("DIR")->allow_extra_args(false);
+  app.add_flag("--allow-writable-plugin-path", run.allow_writable_plugin_path);
   for (CLI::Option* option : app.get_options()) {
     if (option->get_name() != "--plugin-path") {
       option->multi_option_policy(CLI::MultiOptionPolicy::Throw);
@@ -129,7 +133,9 @@ int main(int argc, char** argv) {
     }
     if (command == "plugins") {
       const auto options = parse_options(argc, argv, 0);
-      return projtour::run_plugins_command(options.plugin_paths, std::cout, std::cerr);
+      return projtour::run_plugins_command(
+          options.plugin_paths, std::cout, std::cerr,
+          projtour::PluginLoadOptions{options.allow_writable_plugin_path});
     }
     if (command == "localize") {
 #ifdef PROJTOUR_HAS_LOCALIZE

@@ -92,11 +92,15 @@ std::unique_ptr<PreparedRun> prepare_run(const RunOptions& options, PrepareDepth
     run->world = WorldSpec{};  // the mission's nominal poses with default noise
   }
 
-  run->registry = std::make_unique<PluginRegistry>();
+  run->registry =
+      std::make_unique<PluginRegistry>(PluginLoadOptions{options.allow_writable_plugin_path});
   run->plugin_load_problems =
       run->registry->load_directories(PluginRegistry::search_path(options.plugin_paths));
   for (const auto& problem : run->plugin_load_problems) {
     diag.warning(SourceMark{}, "", "plugin not loaded: " + problem);
+  }
+  for (const auto& replaced : run->registry->warnings()) {
+    diag.warning(SourceMark{}, "", "plugin not loaded: " + replaced);
   }
   run->catalog = std::make_unique<RegistryCatalog>(*run->registry);
   run->machine = load_machine(run->mission.machine, *run->catalog, diag);
