@@ -3,6 +3,7 @@
 #include "projtour/mission_loader.hpp"
 #include "projtour/occupancy_map.hpp"
 #include "projtour/params_reader.hpp"
+#include "projtour_executor/run_checks.hpp"
 #include "projtour_executor/runner.hpp"
 
 namespace projtour {
@@ -58,7 +59,15 @@ std::optional<InstanceChoice> check_instance(const PluginRegistry& registry,
   if (local.has_errors()) return std::nullopt;
   const std::string why = registry.validate_params(spec.kind, params);
   if (!why.empty()) {
-    diag.error(spec.mark, spec.params_path, why);
+    // A plugin names the parameter first ("particles: expected ..."): point at its line.
+    const std::string name = why.substr(0, why.find(':'));
+    if (name.size() < why.size() && spec.params.IsMap() && spec.params[name].IsDefined()) {
+      const YAML::Mark m = spec.params[name].Mark();
+      diag.error(SourceMark{robot_file, m.line + 1, m.column + 1}, spec.params_path + "." + name,
+                 why.substr(std::min(why.size(), name.size() + 2)));
+    } else {
+      diag.error(spec.mark, spec.params_path, why);
+    }
     return std::nullopt;
   }
   return InstanceChoice{spec.kind, params};
@@ -153,6 +162,9 @@ std::unique_ptr<PreparedRun> prepare_run(const RunOptions& options, PrepareDepth
   }
   if (run->map)
     report_map_problems(run->mission, check_mission_on_map(run->mission, *run->map), diag);
+  // Every model and content file opened, and the geometry checked, before validate says ok and
+  // before a run moves anything (both come through here).
+  check_run_assets(run->mission, diag);
   return diag.has_errors() ? nullptr : std::move(run);
 }
 

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <random>
+#include <stdexcept>
 
 #include "projtour/geometry.hpp"
 #include "projtour/model.hpp"
@@ -186,6 +187,29 @@ TEST(Renderer, RaysAtVerticesOfAClosedMeshStopAtTheFrontSurface) {
   }
   EXPECT_GT(aimed, 100);
   EXPECT_EQ(slipped, 0) << "of " << aimed;
+}
+
+// A NaN vertex once reached the BVH and the first frame crashed the dry run (SIGSEGV); the
+// scene refuses the mesh instead, with the reason.
+TEST(Renderer, MeshWithNanVertexOrStrayIndexIsRefused) {
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 0}, {0, 1, 0}, {0, 0, std::nanf("")}};
+  mesh.triangles = {{0, 1, 2}};
+  SceneBuilder builder;
+  EXPECT_THROW(
+      {
+        try {
+          builder.add_mesh(mesh, Eigen::Isometry3d::Identity(), 1);
+        } catch (const std::invalid_argument& e) {
+          EXPECT_STREQ(e.what(), "mesh vertex 2 is not finite");
+          throw;
+        }
+      },
+      std::invalid_argument);
+  mesh.vertices[2] = {0, 0, 1};
+  mesh.triangles = {{0, 1, 3}};
+  EXPECT_THROW(builder.add_mesh(mesh, Eigen::Isometry3d::Identity(), 1), std::invalid_argument);
+  EXPECT_EQ(builder.triangle_count(), 0u);
 }
 
 TEST(KinectNoise, AxialSigmaMatchesModel) {

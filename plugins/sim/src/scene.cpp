@@ -5,6 +5,8 @@
 #include <array>
 #include <cmath>
 #include <numeric>
+#include <stdexcept>
+#include <string>
 
 #include "projtour_sim/depth_renderer.hpp"
 
@@ -65,9 +67,20 @@ void SceneBuilder::add_mesh(const TriangleMesh& mesh, const Eigen::Isometry3d& T
                             int object_id) {
   const Eigen::Isometry3f T = T_world_mesh.cast<float>();
   std::vector<Eigen::Vector3f> world(mesh.vertices.size());
-  for (std::size_t i = 0; i < world.size(); ++i) world[i] = T * mesh.vertices[i];
+  for (std::size_t i = 0; i < world.size(); ++i) {
+    world[i] = T * mesh.vertices[i];
+    // A NaN corner poisons the BVH's bounds and the traversal reads past its nodes (SIGSEGV):
+    // the run's checks refuse such a model first, and this stops any other way in.
+    if (!world[i].allFinite()) {
+      throw std::invalid_argument("mesh vertex " + std::to_string(i) + " is not finite");
+    }
+  }
   corners_.reserve(corners_.size() + 3 * mesh.triangles.size());
+  const int vertex_count = static_cast<int>(world.size());
   for (const Eigen::Vector3i& f : mesh.triangles) {
+    if ((f.array() < 0).any() || (f.array() >= vertex_count).any()) {
+      throw std::invalid_argument("mesh triangle index out of range");
+    }
     add_triangle(world[f[0]], world[f[1]], world[f[2]], object_id);
   }
 }
