@@ -1,7 +1,10 @@
 // Depth frames to organized clouds: whole frame, a crop around a sphere, and frame averaging.
 #include <algorithm>
 #include <cmath>
+#include <memory>
+#include <mutex>
 #include <stdexcept>
+#include <vector>
 
 #include "projtour/geometry.hpp"
 #include "projtour/registration.hpp"
@@ -17,23 +20,64 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
+// A camera's unit-depth rays, one per pixel, solved once: undistorting a pixel is an iterative
+// solve, and a camera's rays are the same in every frame. Kept per camera (its intrinsics and
+// image size) for the process; a handful of cameras at most, so the oldest goes past eight.
+class RayTable {
+ public:
+  static std::shared_ptr<const RayTable> of(const PinholeModel& k, int width, int height) {
+    static std::mutex mutex;
+    static std::vector<std::shared_ptr<const RayTable>> tables;
+    std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& t : tables) {
+      if (t->same_camera(k, width, height)) return t;
+    }
+    auto made = std::make_shared<const RayTable>(k, width, height);
+    if (tables.size() >= 8) tables.erase(tables.begin());
+    tables.push_back(made);
+    return made;
+  }
+  RayTable(const PinholeModel& k, int width, int height) : k_(k), width_(width), height_(height) {
+    rays_.resize(static_cast<std::size_t>(width) * height);
+    for (int v = 0; v < height; ++v) {
+      for (int u = 0; u < width; ++u) {
+        rays_[static_cast<std::size_t>(v) * width + u] =
+            k.unproject(Eigen::Vector2d(u, v)).head<2>().cast<float>();
+      }
+    }
+  }
+  const Eigen::Vector2f& at(int u, int v) const {
+    return rays_[static_cast<std::size_t>(v) * width_ + u];
+  }
+
+ private:
+  bool same_camera(const PinholeModel& k, int width, int height) const {
+    return width == width_ && height == height_ && k.fx == k_.fx && k.fy == k_.fy &&
+           k.cx == k_.cx && k.cy == k_.cy && k.distortion == k_.distortion;
+  }
+  PinholeModel k_;
+  int width_, height_;
+  std::vector<Eigen::Vector2f> rays_;
+};
+
 // Turns pixels into unit-depth rays, with the distortion model only when the camera has one
-// (undistorting is an iterative solve per pixel).
+// (then from the camera's RayTable).
 class RayMaker {
  public:
-  explicit RayMaker(const PinholeModel& k)
-      : k_(k), distorted_(k.has_distortion()), inv_fx_(1.0 / k.fx), inv_fy_(1.0 / k.fy) {}
+  RayMaker(const PinholeModel& k, int width, int height)
+      : k_(k),
+        table_(k.has_distortion() ? RayTable::of(k, width, height) : nullptr),
+        inv_fx_(1.0 / k.fx),
+        inv_fy_(1.0 / k.fy) {}
+  bool distorted() const { return table_ != nullptr; }
   Eigen::Vector2f ray(int u, int v) const {
-    if (distorted_) {
-      const Eigen::Vector3d r = k_.unproject(Eigen::Vector2d(u, v));
-      return r.head<2>().cast<float>();
-    }
+    if (table_) return table_->at(u, v);
     return {static_cast<float>((u - k_.cx) * inv_fx_), static_cast<float>((v - k_.cy) * inv_fy_)};
   }
 
  private:
   const PinholeModel& k_;
-  bool distorted_;
+  std::shared_ptr<const RayTable> table_;
   double inv_fx_, inv_fy_;
 };
 
@@ -68,7 +112,7 @@ OrganizedCloud organized_cloud(const DepthFrame& frame, const Eigen::Vector3d& d
                                double min_range_m, double max_range_m) {
   check_frame(frame);
   OrganizedCloud cloud = empty_window(frame, depth_to_color_m, 0, 0, frame.width, frame.height);
-  const RayMaker rays(frame.intrinsics);
+  const RayMaker rays(frame.intrinsics, frame.width, frame.height);
   const float min_z = static_cast<float>(min_range_m), max_z = static_cast<float>(max_range_m);
   for (int v = 0; v < frame.height; ++v) {
     for (int u = 0; u < frame.width; ++u) {
@@ -129,19 +173,28 @@ OrganizedCloud crop_sphere(const DepthFrame& frame, const Eigen::Vector3d& depth
   const int w = std::max(0, u_hi - u_lo), h = std::max(0, v_hi - v_lo);
   OrganizedCloud cloud = empty_window(frame, depth_to_color_m, u_lo, v_lo, w, h);
 
-  const RayMaker rays(frame.intrinsics);
+  const RayMaker rays(frame.intrinsics, frame.width, frame.height);
   const Eigen::Vector3f cf = c.cast<float>();
   const float r2 = static_cast<float>(r * r);
   const float z_min = static_cast<float>(std::max(0.0, z_near)), z_max = static_cast<float>(z_far);
+  // Without distortion a pixel's ray is its column's x and its row's y: the window's columns
+  // are solved once, not once per pixel (the same floats either way).
+  std::vector<float> column_x;
+  if (!rays.distorted()) {
+    column_x.resize(static_cast<std::size_t>(w));
+    for (int i = 0; i < w; ++i) column_x[i] = rays.ray(u_lo + i, v_lo).x();
+  }
   for (int j = 0; j < h; ++j) {
     const int v = v_lo + j;
     const std::uint16_t* depth = &frame.depth_mm[static_cast<std::size_t>(v) * frame.width];
     Eigen::Vector3f* out = &cloud.points[static_cast<std::size_t>(j) * w];
+    const float row_y = rays.ray(u_lo, v).y();
     for (int i = 0; i < w; ++i) {
       const int u = u_lo + i;
       const float z = depth[u] * 0.001f;
       if (depth[u] == 0 || z < z_min || z > z_max) continue;  // cheap rejection before the ray
-      const Eigen::Vector2f ray = rays.ray(u, v);
+      const Eigen::Vector2f ray =
+          column_x.empty() ? rays.ray(u, v) : Eigen::Vector2f(column_x[i], row_y);
       const Eigen::Vector3f p(ray.x() * z, ray.y() * z, z);
       if ((p - cf).squaredNorm() <= r2) out[i] = p + cloud.depth_to_color_m;
     }

@@ -101,6 +101,14 @@ Level downsample(const Level& fine, std::size_t* fine_valid = nullptr) {
     Eigen::Vector3f* out = coarse.storage.data() + static_cast<std::size_t>(j) * coarse.width;
     for (int i = 0; i < coarse.width; ++i) {
       const int fi = fi0 + 2 * i;
+      // Most of a crop's window lies outside its sphere: a block of four empty pixels is the
+      // common case, told from four depths.
+      if (rows[0] != nullptr && rows[1] != nullptr && fi >= 0 && fi + 1 < fine.width &&
+          !OrganizedCloud::valid(rows[0][fi]) && !OrganizedCloud::valid(rows[0][fi + 1]) &&
+          !OrganizedCloud::valid(rows[1][fi]) && !OrganizedCloud::valid(rows[1][fi + 1])) {
+        out[i] = Eigen::Vector3f::Constant(kNaN);
+        continue;
+      }
       const Eigen::Vector3f* block[4];
       int n = 0;
       for (const Eigen::Vector3f* row : rows) {
@@ -195,10 +203,28 @@ Eigen::Vector3f scene_normal(const Level& level, int i, int j, int step,
   return n;
 }
 
-struct Match {
-  Eigen::Vector3f p;  // model point under the current estimate
-  Eigen::Vector3f n;  // its normal
-  Eigen::Vector3f q;  // scene point
+// scene_normal per pixel of one pyramid level, each solved on first use.
+class SceneNormals {
+ public:
+  bool empty() const { return solved_.empty(); }
+  void reset(const Level& level) {
+    const std::size_t n = static_cast<std::size_t>(level.width) * level.height;
+    solved_.assign(n, 0);
+    normals_.resize(n);
+  }
+  const Eigen::Vector3f& at(const Level& level, int i, int j, int step,
+                            const Eigen::Vector3f& view_origin) {
+    const std::size_t k = static_cast<std::size_t>(j) * level.width + i;
+    if (!solved_[k]) {
+      normals_[k] = scene_normal(level, i, j, step, view_origin);
+      solved_[k] = 1;
+    }
+    return normals_[k];
+  }
+
+ private:
+  std::vector<unsigned char> solved_;
+  std::vector<Eigen::Vector3f> normals_;
 };
 
 // The scene point for a model point: at its pixel, or the nearest within +-radius pixels.
@@ -339,9 +365,13 @@ RegistrationResult run_schedule(const IcpModel& model, const std::vector<Level>&
 
   Eigen::Isometry3d T = guess;
   bool every_stage_matched = true;
-  std::vector<Match> matches;
+  // Scene normals are solved for a pixel the first time a match lands there and kept for the
+  // frame's later iterations, which land mostly on the same pixels.
+  std::vector<SceneNormals> normals(pyramid.size());
   for (const IcpStage& stage : options.stages) {
     const Level& level = pyramid[stage.pyramid_level];
+    SceneNormals& level_normals = normals[stage.pyramid_level];
+    if (level_normals.empty()) level_normals.reset(level);
     const std::size_t n_model = std::min<std::size_t>(
         model.points().size(), static_cast<std::size_t>(stage.max_model_points));
     const float max_d2 = static_cast<float>(stage.max_distance_m * stage.max_distance_m);
@@ -350,30 +380,25 @@ RegistrationResult run_schedule(const IcpModel& model, const std::vector<Level>&
     for (int it = 0; it < stage.iterations; ++it) {
       const Eigen::Matrix3f R = T.linear().cast<float>();
       const Eigen::Vector3f t = T.translation().cast<float>();
-      matches.clear();
-      for (std::size_t k = 0; k < n_model; ++k) {
-        Match m;
-        m.p = R * model.points()[k] + t;
-        m.n = R * model.normals()[k];
-        // Only the side facing the camera can be seen; the back side would otherwise match
-        // the support plane or the far surface of the target itself.
-        if (m.n.dot(m.p - projector.origin()) >= 0.0f) continue;
-        int qi, qj;
-        if (!associate(level, projector, m.p, stage.search_radius_px, m.q, qi, qj)) continue;
-        if ((m.q - m.p).squaredNorm() > max_d2) continue;
-        const Eigen::Vector3f ns = scene_normal(level, qi, qj, step, projector.origin());
-        if (ns.isZero() || ns.dot(m.n) < cos_max_angle) continue;
-        matches.push_back(m);
-      }
-      ++result.iterations;
-      if (matches.size() < 12) {
-        every_stage_matched = false;
-        break;
-      }
+      // One pass: each match is weighed and summed into the 6x6 system as it is found, in the
+      // model's order (the sums, and so the pose, are the same on every run).
       Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
       Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
-      for (const Match& m : matches) {
-        const double r = m.n.dot(m.p - m.q);
+      std::size_t matched = 0;
+      for (std::size_t k = 0; k < n_model; ++k) {
+        const Eigen::Vector3f p = R * model.points()[k] + t;
+        const Eigen::Vector3f n = R * model.normals()[k];
+        // Only the side facing the camera can be seen; the back side would otherwise match
+        // the support plane or the far surface of the target itself.
+        if (n.dot(p - projector.origin()) >= 0.0f) continue;
+        Eigen::Vector3f q;
+        int qi, qj;
+        if (!associate(level, projector, p, stage.search_radius_px, q, qi, qj)) continue;
+        if ((q - p).squaredNorm() > max_d2) continue;
+        const Eigen::Vector3f& ns = level_normals.at(level, qi, qj, step, projector.origin());
+        if (ns.isZero() || ns.dot(n) < cos_max_angle) continue;
+        ++matched;
+        const double r = n.dot(p - q);
         double w = 1.0;
         if (tukey_c > 0.0) {
           const double u = r / tukey_c;
@@ -381,12 +406,17 @@ RegistrationResult run_schedule(const IcpModel& model, const std::vector<Level>&
           w = (1.0 - u * u) * (1.0 - u * u);
         }
         Eigen::Matrix<double, 6, 1> J;
-        J.head<3>() = m.p.cross(m.n).cast<double>();
-        J.tail<3>() = m.n.cast<double>();
+        J.head<3>() = p.cross(n).cast<double>();
+        J.tail<3>() = n.cast<double>();
         for (int a = 0; a < 6; ++a) {
           for (int b = 0; b <= a; ++b) H(a, b) += w * J[a] * J[b];
         }
         g += (w * r) * J;
+      }
+      ++result.iterations;
+      if (matched < 12) {
+        every_stage_matched = false;
+        break;
       }
       H = H.selfadjointView<Eigen::Lower>();
       // A touch of damping keeps a flat or symmetric patch from making the solve singular.
