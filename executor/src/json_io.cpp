@@ -140,6 +140,9 @@ struct DuplicateKey {
   std::string key;
   std::size_t byte;
 };
+struct TooDeep {
+  std::size_t byte;
+};
 
 [[noreturn]] void malformed(const std::string& source, std::size_t byte, const std::string& why) {
   throw std::runtime_error(source + ": malformed JSON at byte " + std::to_string(byte) + ": " +
@@ -172,7 +175,12 @@ Json parse_json(const std::string& text, const std::string& source) {
   const char* const begin = text.data();
   const char* furthest = begin;
   std::vector<std::set<std::string>> open_objects;
-  const Json::parser_callback_t on_event = [&](int, Json::parse_event_t event, Json& parsed) {
+  const Json::parser_callback_t on_event = [&](int depth, Json::parse_event_t event, Json& parsed) {
+    // `depth` counts the arrays and objects around the one starting.
+    if ((event == Json::parse_event_t::object_start || event == Json::parse_event_t::array_start) &&
+        depth >= kMaxJsonDepth) {
+      throw TooDeep{static_cast<std::size_t>(furthest - begin)};
+    }
     switch (event) {
       case Json::parse_event_t::object_start:
         open_objects.emplace_back();
@@ -197,6 +205,9 @@ Json parse_json(const std::string& text, const std::string& source) {
                        CountingIterator(begin + text.size(), &furthest), on_event);
   } catch (const DuplicateKey& d) {
     malformed(source, d.byte, "duplicate key \"" + d.key + "\"");
+  } catch (const TooDeep& d) {
+    malformed(source, d.byte,
+              "nested deeper than " + std::to_string(kMaxJsonDepth) + " arrays and objects");
   } catch (const Json::parse_error& e) {
     // "[json.exception.parse_error.101] parse error at line 1, column 3: ..." without the tag.
     std::string why = e.what();

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <iomanip>
 #include <sstream>
 
@@ -33,6 +32,7 @@ Json build_report(const RunSummary& summary) {
   report["outcome"] = to_string(summary.outcome);
   if (!summary.reason.empty()) report["reason"] = summary.reason;
   if (!summary.ignored_cancel.empty()) report["ignored_cancel"] = summary.ignored_cancel;
+  if (!summary.notes.empty()) report["notes"] = summary.notes;
   Json timing = Json::object();
   timing["wall_s"] = summary.wall_s;
   timing["mission_s"] = summary.mission_s;
@@ -56,62 +56,6 @@ Json build_report(const RunSummary& summary) {
     report["building"] = std::move(building);
   }
   return report;
-}
-
-Json checkpoint_to_json(const Checkpoint& checkpoint) {
-  Json j = Json::object();
-  j["mission"] = checkpoint.mission;
-  j["seed"] = checkpoint.seed;
-  j["mission_s"] = checkpoint.mission_s;
-  j["done"] = checkpoint.done;
-  j["current_target"] = checkpoint.current_target ? Json(*checkpoint.current_target) : Json();
-  return j;
-}
-
-Checkpoint read_checkpoint(const std::filesystem::path& file, const MissionSpec& mission) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw std::runtime_error(file.string() + ": cannot read the checkpoint");
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  auto index_of = [&](const std::string& id) {
-    for (std::size_t i = 0; i < mission.targets.size(); ++i) {
-      if (mission.targets[i].id == id) return i;
-    }
-    throw std::runtime_error("target \"" + id + "\" is not in the mission");
-  };
-  // parse_json names the file itself.
-  const Json j = parse_json(text, file.string());
-  try {
-    using namespace json_field;
-    expect_object(j, "the checkpoint");
-    reject_unknown(j, {"mission", "seed", "mission_s", "done", "current_target"});
-    Checkpoint c;
-    c.mission = string_at(j, "mission");
-    if (c.mission != mission.name) {
-      throw std::runtime_error("written by mission \"" + c.mission + "\", not \"" + mission.name +
-                               "\"");
-    }
-    c.seed = uint64_at(j, "seed");
-    c.mission_s = number_at(j, "mission_s");
-    const Json& done = required(j, "done");
-    if (!done.is_array()) throw std::runtime_error("\"done\" is not an array");
-    for (std::size_t k = 0; k < done.size(); ++k) {
-      try {
-        TargetRecord r = done[k].get<TargetRecord>();
-        r.index = index_of(r.id);
-        c.done.push_back(std::move(r));
-      } catch (const std::runtime_error& e) {
-        throw std::runtime_error("done[" + std::to_string(k) + "]: " + e.what());
-      }
-    }
-    const Json& current = required(j, "current_target");
-    if (!current.is_null()) {
-      c.current_target = string_at(j, "current_target");
-      index_of(*c.current_target);
-    }
-    return c;
-  } catch (const std::runtime_error& e) {
-    throw std::runtime_error(file.string() + ": " + e.what());
-  }
 }
 
 void print_target_table(const RunSummary& summary, std::ostream& out) {

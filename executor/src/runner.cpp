@@ -289,7 +289,17 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     return 2;
   }
   const std::filesystem::path run_dir = claimed->path();
+  // What each target is done against, read once: every checkpoint records it for the targets
+  // done, and a resume visits again those whose pose or model changed since.
+  std::vector<TargetIdentity> identities;
+  try {
+    identities = identify_targets(mission);
+  } catch (const std::exception& e) {
+    err << "projtour: nothing moved: " << e.what() << "\n";
+    return 2;
+  }
   std::optional<Checkpoint> checkpoint;
+  std::vector<std::string> resume_notes;
   if (options.resume) {
     try {
       checkpoint = read_checkpoint(run_dir / "checkpoint.json", mission);
@@ -297,6 +307,8 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
       err << "projtour: cannot resume: " << e.what() << "\n";
       return 2;
     }
+    resume_notes = drop_changed_targets(*checkpoint, identities);
+    for (const auto& note : resume_notes) err << "projtour: " << note << "\n";
   }
 
   std::uint64_t seed = 1;
@@ -380,6 +392,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     c.seed = seed;
     c.mission_s = mission_s;
     c.done = done;
+    for (const auto& r : done) c.done_against.push_back(identities[r.index]);
     if (interrupted_target) c.current_target = mission.targets[*interrupted_target].id;
     write_file_atomically(run_dir / "checkpoint.json", dump_json(checkpoint_to_json(c), 2) + "\n");
   };
@@ -424,6 +437,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     summary.mission_s = mission_s;
     summary.targets = records;
     summary.ignored_cancel = ignored_cancel;
+    summary.notes = resume_notes;
     return summary;
   };
   auto make_summary = [&](TourOutcome outcome) {

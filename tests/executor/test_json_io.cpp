@@ -79,6 +79,22 @@ TEST(JsonParse, RejectsDuplicateKeysAtTheirByte) {
   EXPECT_EQ(parse_error(R"({"a": {"a": 1}, "b": [{"a": 1}, {"a": 2}], "c": {}})"), "");
 }
 
+// Regression: a checkpoint of 50,000 nested '[' crashed --resume (the recursion of reading it).
+TEST(JsonParse, NestingDeeperThanTheBoundIsRefusedAtItsByte) {
+  const auto nested = [](int depth) {
+    return std::string(static_cast<std::size_t>(depth), '[') +
+           std::string(static_cast<std::size_t>(depth), ']');
+  };
+  EXPECT_EQ(parse_error(nested(kMaxJsonDepth)), "");
+  EXPECT_EQ(parse_error(nested(kMaxJsonDepth + 1)),
+            "in.json: malformed JSON at byte 65: nested deeper than 64 arrays and objects");
+  EXPECT_EQ(parse_error(std::string(50000, '[')),
+            "in.json: malformed JSON at byte 65: nested deeper than 64 arrays and objects");
+  std::string objects;
+  for (int i = 0; i < 50000; ++i) objects += "{\"a\": ";
+  EXPECT_NE(parse_error(objects).find("nested deeper than 64"), std::string::npos);
+}
+
 TEST(JsonParse, AcceptsStrictJson) {
   const Json j = parse_json(
       R"({"u": 18446744073709551615, "i": -9223372036854775808, "d": 1e-07, "s": "\ud83d\ude00\u00e9\n",
@@ -255,6 +271,25 @@ class CheckpointFile : public ::testing::Test {
   MissionSpec mission_;
 };
 
+// What a done entry of the tests below was done against.
+const char* const kAgainst =
+    R"("done_against": {"pose": {"translation_m": [1.0, 2.0, 0.5], )"
+    R"("rotation_wxyz": [1.0, 0.0, 0.0, 0.0]}, )"
+    R"("model": {"file": "models/rabbit.ply", "bytes": 1234, "fnv1a64": "0123456789abcdef"}})";
+
+// A checkpoint of mission "m" at `mission_s` with these done entries.
+std::string checkpoint_text(const std::string& mission_s, const std::string& done) {
+  return R"({"mission": "m", "seed": 1, "mission_s": )" + mission_s + R"(, "done": [)" + done +
+         R"(], "current_target": null})";
+}
+
+// A done entry: `fields` after the id, then kAgainst.
+std::string done_entry(const std::string& id, const std::string& fields) {
+  return R"({"id": ")" + id + R"(", )" + fields + ", " + kAgainst + "}";
+}
+
+const char* const kProjected = R"("outcome": "projected", "retries": 0)";
+
 TEST_F(CheckpointFile, RoundTripsThroughTheRecords) {
   Checkpoint c;
   c.mission = "m";
@@ -263,15 +298,26 @@ TEST_F(CheckpointFile, RoundTripsThroughTheRecords) {
   TargetRecord r = full_record();
   r.index = 0;
   c.done.push_back(r);
+  TargetIdentity against;
+  against.t_map_model_m = {1.0, -2.5, 0.125};
+  against.q_map_model = Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()));
+  against.model = "models/rabbit.ply";
+  against.model_bytes = 1234;
+  against.model_fnv1a64 = 0xfedcba9876543210ull;
+  c.done_against.push_back(against);
   c.current_target = "sign";
   const std::string text = dump_json(checkpoint_to_json(c), 2);
   EXPECT_NE(text.find("\"seed\": 18446744073709551615,"), std::string::npos) << text;
+  EXPECT_NE(text.find("\"fnv1a64\": \"fedcba9876543210\""), std::string::npos) << text;
   const Checkpoint back = read_checkpoint(write(text), mission_);
   EXPECT_EQ(back.seed, c.seed);
   EXPECT_EQ(back.mission_s, 42.5);
   ASSERT_EQ(back.done.size(), 1u);
   EXPECT_EQ(back.done[0].index, 0u);
   EXPECT_EQ(dump_json(Json(back.done[0])), dump_json(Json(r)));
+  ASSERT_EQ(back.done_against.size(), 1u);
+  EXPECT_EQ(identity_change(back.done_against[0], against), "");
+  EXPECT_EQ(back.done_against[0].model, "models/rabbit.ply");
   EXPECT_EQ(back.current_target, std::optional<std::string>("sign"));
   EXPECT_EQ(dump_json(checkpoint_to_json(back), 2), text);
 }
@@ -296,18 +342,151 @@ TEST_F(CheckpointFile, FieldsMustHaveTheirTypes) {
     return R"({"mission": "m", "seed": )" + seed + R"(, "mission_s": 1.0, "done": [)" + done +
            R"(], "current_target": null})";
   };
+  EXPECT_EQ(error(checkpoint("1", done_entry("rabbit", kProjected))), "");
   EXPECT_EQ(error(checkpoint("7", "")), "");
   EXPECT_EQ(error(checkpoint("-1", "")), file + ": \"seed\" is not an unsigned integer");
   EXPECT_EQ(error(checkpoint("1.5", "")), file + ": \"seed\" is not an unsigned integer");
   EXPECT_EQ(error(checkpoint("\"1\"", "")), file + ": \"seed\" is not an unsigned integer");
-  EXPECT_EQ(error(checkpoint("1", R"({"id": "rabbit", "outcome": "projected", "retries": -0.5})")),
-            file + ": done[0]: \"retries\" is not an integer");
-  EXPECT_EQ(error(checkpoint("1", R"({"id": "fox", "outcome": "projected", "retries": 0})")),
-            file + ": done[0]: target \"fox\" is not in the mission");
+  EXPECT_EQ(
+      error(checkpoint("1", done_entry("rabbit", R"("outcome": "projected", "retries": -0.5)"))),
+      file + ": done[0]: \"retries\" is not an integer");
+  EXPECT_EQ(error(checkpoint("1", R"({"id": "rabbit", "outcome": "projected", "retries": 0})")),
+            file +
+                ": done[0].done_against: missing: each done target records what it was done "
+                "against");
+  EXPECT_EQ(error(checkpoint("1", R"({"id": "rabbit", "outcome": "projected", "retries": 0, )"
+                                  R"("done_against": {"pose": {"translation_m": [1, 2], )"
+                                  R"("rotation_wxyz": [1, 0, 0, 0]}, "model": {}}})")),
+            file + ": done[0].done_against.pose.translation_m: expected an array of 3 numbers");
+  EXPECT_EQ(error(checkpoint("1", R"({"id": "rabbit", "outcome": "projected", "retries": 0, )"
+                                  R"("done_against": {"pose": {"translation_m": [1, 2, 3], )"
+                                  R"("rotation_wxyz": [2, 0, 0, 0]}, "model": {}}})")),
+            file +
+                ": done[0].done_against.pose.rotation_wxyz: expected a unit quaternion, got "
+                "norm 2.0");
+  EXPECT_EQ(error(checkpoint("1", R"({"id": "rabbit", "outcome": "projected", "retries": 0, )"
+                                  R"("done_against": {"pose": {"translation_m": [1, 2, 3], )"
+                                  R"("rotation_wxyz": [1, 0, 0, 0]}, "model": {"file": "a", )"
+                                  R"("bytes": 1, "fnv1a64": "XYZ"}}})")),
+            file +
+                ": done[0].done_against.model.fnv1a64: expected 16 lowercase hex digits, got "
+                "\"XYZ\"");
+  EXPECT_EQ(error(checkpoint("1", R"({"id": "rabbit", "outcome": "projected", "retries": 0, )"
+                                  R"("done_against": {"pose": {"translation_m": [1, 2, 3], )"
+                                  R"("rotation_wxyz": [1, 0, 0, 0]}, "model": {"file": "a"}}})")),
+            file + ": done[0].done_against: \"bytes\" is missing");
   EXPECT_EQ(error(R"({"mission": "m", "seed": 1, "mission_s": 1.0, "done": [], )"
                   R"("current_target": null, "extra": 1})"),
             file + ": unknown field \"extra\"");
   EXPECT_EQ(error("[]"), file + ": the checkpoint is not an object but array");
+}
+
+// Regression: a checkpoint of 50,000 nested '[' crashed --resume.
+TEST_F(CheckpointFile, DeeplyNestedCheckpointIsRefused) {
+  const std::string file = (dir_ / "checkpoint.json").string();
+  EXPECT_EQ(error(std::string(50000, '[')),
+            file + ": malformed JSON at byte 65: nested deeper than 64 arrays and objects");
+  EXPECT_EQ(error(checkpoint_text("1.0", "") + std::string(50000, '[')).rfind(file, 0), 0u);
+}
+
+TEST_F(CheckpointFile, CheckpointLargerThanTheBoundIsRefusedUnread) {
+  const std::string file = (dir_ / "checkpoint.json").string();
+  std::string text = checkpoint_text("1.0", "");
+  text.resize(kMaxCheckpointBytes + 1, ' ');
+  EXPECT_EQ(error(text), file + ": larger than 64 MiB, the bound of a checkpoint");
+  text.resize(kMaxCheckpointBytes);  // trailing spaces are JSON whitespace
+  EXPECT_EQ(error(text), "");
+}
+
+// Regression: `mission_s: -1e300` hung --resume (the clock stood still at the tick's size).
+TEST_F(CheckpointFile, NegativeHugeOrNonFiniteMissionTimeIsRefused) {
+  const std::string file = (dir_ / "checkpoint.json").string();
+  const std::string expected = file + ": mission_s: expected a finite time from 0 to 1e+09, got ";
+  EXPECT_EQ(error(checkpoint_text("-1e300", "")), expected + "-1e+300");
+  EXPECT_EQ(error(checkpoint_text("1e300", "")), expected + "1e+300");
+  EXPECT_EQ(error(checkpoint_text("-0.5", "")), expected + "-0.5");
+  EXPECT_EQ(error(checkpoint_text("1000000000.5", "")), expected + "1000000000.5");
+  EXPECT_EQ(error(checkpoint_text("null", "")), expected + "null");
+  EXPECT_EQ(error(checkpoint_text("\"1\"", "")), file + ": mission_s: is not a number but string");
+  EXPECT_EQ(error(checkpoint_text("0", "")), "");
+  EXPECT_EQ(error(checkpoint_text("1e9", "")), "");
+  // The time fields of the records too.
+  EXPECT_EQ(
+      error(checkpoint_text("1.0", done_entry("rabbit", R"("outcome": "projected", )"
+                                                        R"("retries": 0, "projected_s": -1.0)"))),
+      file + ": done[0].projected_s: expected a finite time from 0 to 1e+09, got -1.0");
+  EXPECT_EQ(error(checkpoint_text(
+                "1.0", done_entry("rabbit", R"("outcome": "projected", "retries": 0, )"
+                                            R"("align": {"method": "x", "time_ms": null, )"
+                                            R"("iterations": 2, "inlier_fraction": 1, )"
+                                            R"("rmse_mm": null})"))),
+            file + ": done[0].align.time_ms: expected a finite time from 0 to 1e+12, got null");
+  EXPECT_EQ(error(checkpoint_text("1.0", done_entry("rabbit", R"("outcome": "skipped", )"
+                                                              R"("retries": -3)"))),
+            file + ": done[0].retries: expected a count >= 0, got -3");
+}
+
+// Regression: duplicated `done` entries gave a report of 8 targets for a 6-target mission.
+TEST_F(CheckpointFile, DuplicateDoneTargetIsRefused) {
+  const std::string file = (dir_ / "checkpoint.json").string();
+  const std::string rabbit = done_entry("rabbit", kProjected);
+  EXPECT_EQ(
+      error(checkpoint_text("1.0", rabbit + ", " + done_entry("sign", kProjected) + ", " + rabbit)),
+      file + ": done[2].id: \"rabbit\" is done already (done[0])");
+}
+
+// Regression: an unknown outcome was copied through to the report.
+TEST_F(CheckpointFile, UnknownOutcomeIsRefused) {
+  const std::string file = (dir_ / "checkpoint.json").string();
+  EXPECT_EQ(
+      error(checkpoint_text("1.0", done_entry("sign", kProjected) + ", " +
+                                       done_entry("rabbit", R"("outcome": "x", "retries": 0)"))),
+      file +
+          ": done[1].outcome: expected one of \"projected\", \"skipped\", \"failed\", "
+          "got \"x\"");
+  // Control characters are escaped, not echoed raw to the terminal.
+  EXPECT_EQ(error(checkpoint_text("1.0", done_entry("rabbit", R"("outcome": "\u001b[2J", )"
+                                                              R"("retries": 0)"))),
+            file +
+                ": done[0].outcome: expected one of \"projected\", \"skipped\", \"failed\", "
+                "got \"\\u001b[2J\"");
+}
+
+TEST_F(CheckpointFile, UnknownTargetIdIsRefused) {
+  const std::string file = (dir_ / "checkpoint.json").string();
+  EXPECT_EQ(error(checkpoint_text("1.0", done_entry("fox", kProjected))),
+            file + ": done[0].id: target \"fox\" is not in the mission");
+  EXPECT_EQ(error(R"({"mission": "m", "seed": 1, "mission_s": 0.0, "done": [], )"
+                  R"("current_target": "fox"})"),
+            file + ": current_target: target \"fox\" is not in the mission");
+}
+
+// The report's shape, pinned: the notes (a target visited again on resume) come after the
+// reasons, and only when there are any.
+TEST(ReportJson, NotesAreWrittenAfterTheReasonsWhenAny) {
+  RunSummary summary;
+  summary.mission = "m";
+  summary.seed = 3;
+  summary.outcome = TourOutcome::completed;
+  summary.wall_s = 1.5;
+  summary.mission_s = 20.0;
+  TargetRecord r;
+  r.id = "rabbit";
+  r.outcome = "projected";
+  summary.targets.push_back(r);
+  EXPECT_EQ(dump_json(build_report(summary)),
+            R"({"mission": "m", "dry_run": false, "seed": 3, "outcome": "completed", )"
+            R"("timing": {"wall_s": 1.5, "mission_s": 20.0}, "targets": [{"id": "rabbit", )"
+            R"("outcome": "projected", "retries": 0}]})");
+  summary.ignored_cancel.push_back("tour/visit/work (scripted)");
+  summary.notes.push_back(
+      "target \"rabbit\" visited again: its pose on the map moved 24.000 m since the checkpoint");
+  EXPECT_EQ(dump_json(build_report(summary)),
+            R"({"mission": "m", "dry_run": false, "seed": 3, "outcome": "completed", )"
+            R"j("ignored_cancel": ["tour/visit/work (scripted)"], "notes": ["target \"rabbit\" )j"
+            R"(visited again: its pose on the map moved 24.000 m since the checkpoint"], )"
+            R"("timing": {"wall_s": 1.5, "mission_s": 20.0}, "targets": [{"id": "rabbit", )"
+            R"("outcome": "projected", "retries": 0}]})");
 }
 
 TEST(SummaryInput, MalformedReportNamesTheFileAndByte) {

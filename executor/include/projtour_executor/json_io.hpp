@@ -22,10 +22,15 @@ std::string dump_json(const Json& value, int indent = -1);
 // A double as dump_json writes it (for messages that quote a figure of a file).
 std::string json_number_text(double value);
 
+// Arrays and objects nested deeper than this are refused: projtour's own files nest five deep,
+// and the recursive code that reads and writes a value (from_json, dump_json, the destructor)
+// must never meet 50,000 levels (README.md, "The command").
+constexpr int kMaxJsonDepth = 64;
+
 // Parses RFC 8259 JSON and nothing more lenient: no trailing characters, comments, leading
-// zeros or '+', no invalid escapes, surrogates or UTF-8, and no key twice in one object (which
-// nlohmann would otherwise resolve silently to the last). Throws std::runtime_error
-// "SOURCE: malformed JSON at byte N: why", N counting from 1.
+// zeros or '+', no invalid escapes, surrogates or UTF-8, no key twice in one object (which
+// nlohmann would otherwise resolve silently to the last), and no nesting beyond kMaxJsonDepth.
+// Throws std::runtime_error "SOURCE: malformed JSON at byte N: why", N counting from 1.
 Json parse_json(const std::string& text, const std::string& source);
 
 // parse_json of the file's contents; a file that cannot be read is a runtime_error naming it.

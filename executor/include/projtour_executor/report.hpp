@@ -1,5 +1,5 @@
 #pragma once
-// report.json, checkpoint.json and the end-of-run table.
+// report.json and the end-of-run table (checkpoint.json: checkpoint.hpp).
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -9,6 +9,7 @@
 
 #include "projtour/ground_truth.hpp"
 #include "projtour/mission.hpp"
+#include "projtour_executor/checkpoint.hpp"
 #include "projtour_executor/events.hpp"
 #include "projtour_executor/executor.hpp"
 #include "projtour_executor/json_io.hpp"
@@ -26,26 +27,15 @@ struct RunSummary {
   std::vector<TargetRecord> targets;  // any order; written in mission order
   std::string reason;                 // why an aborted tour ended; written only when not empty
   std::vector<std::string> ignored_cancel;  // behaviours stopped by force; written when any
+  // What the operator should know of how the run went, such as a target visited again on
+  // resume because it changed since the checkpoint; written when any.
+  std::vector<std::string> notes;
   // The referee's figures of a building that is not the map (dry run); written when present.
   std::optional<BuildingTruth> building;
 };
 
 // DESIGN.md's report.json, and the referee's `building` section of a dry run in a busy world.
 Json build_report(const RunSummary& summary);
-
-struct Checkpoint {
-  std::string mission;
-  std::uint64_t seed = 1;
-  double mission_s = 0.0;
-  std::vector<TargetRecord> done;             // indices resolved against the mission
-  std::optional<std::string> current_target;  // the visit an interruption cut short
-};
-
-Json checkpoint_to_json(const Checkpoint& checkpoint);
-// Parses strictly (json_io.hpp) and reads the done records through from_json. Throws
-// std::runtime_error naming the file: unreadable, malformed (with the byte offset), a field
-// missing or of the wrong type, another mission, or a target the mission does not have.
-Checkpoint read_checkpoint(const std::filesystem::path& file, const MissionSpec& mission);
 
 // The per-target table printed at the end of a run.
 void print_target_table(const RunSummary& summary, std::ostream& out);

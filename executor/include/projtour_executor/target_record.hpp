@@ -63,6 +63,9 @@ struct TargetMeasurements {
   std::optional<double> light_off_target_fraction;
 };
 
+// The outcomes the executor gives a visit (Executor's end_visit and close_visit).
+inline constexpr const char* kTargetOutcomes[] = {"projected", "skipped", "failed"};
+
 struct TargetRecord {
   std::size_t index = 0;  // in the mission; not written, the id is
   std::string id;
