@@ -208,6 +208,9 @@ Json parse_json(const std::string& text, const std::string& source) {
   } catch (const TooDeep& d) {
     malformed(source, d.byte,
               "nested deeper than " + std::to_string(kMaxJsonDepth) + " arrays and objects");
+  } catch (const Json::out_of_range&) {
+    // A number beyond a double ("-1e600"): nlohmann throws this, not a parse_error (fuzzer).
+    malformed(source, static_cast<std::size_t>(furthest - begin), "number out of range");
   } catch (const Json::parse_error& e) {
     // "[json.exception.parse_error.101] parse error at line 1, column 3: ..." without the tag.
     std::string why = e.what();

@@ -95,6 +95,13 @@ TEST(JsonParse, NestingDeeperThanTheBoundIsRefusedAtItsByte) {
   EXPECT_NE(parse_error(objects).find("nested deeper than 64"), std::string::npos);
 }
 
+// Regression (found by fuzz_checkpoint_reader): a number beyond a double escaped parse_json as
+// nlohmann's out_of_range, which --resume did not name the file of.
+TEST(JsonParse, NumberBeyondADoubleIsMalformed) {
+  EXPECT_EQ(parse_error(R"({"mission_s": -1e+600})"),
+            "in.json: malformed JSON at byte 22: number out of range");
+}
+
 TEST(JsonParse, AcceptsStrictJson) {
   const Json j = parse_json(
       R"({"u": 18446744073709551615, "i": -9223372036854775808, "d": 1e-07, "s": "\ud83d\ude00\u00e9\n",
