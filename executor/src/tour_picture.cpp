@@ -356,7 +356,7 @@ void write_tour_picture(const TourPictureInput& input, const std::filesystem::pa
     if (png.has_parent_path()) make_run_directory(png.parent_path());
     write_run_image(png, img);
   } catch (const std::exception& e) {
-    throw std::runtime_error("cannot write the tour picture: " + std::string(e.what()));
+    throw std::runtime_error("cannot write the tour picture " + png.string() + ": " + e.what());
   }
 }
 
