@@ -4,6 +4,7 @@
 #include <mrpt/maps/COccupancyGridMap2D.h>
 
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 
 #include "demo_map_crop.hpp"
 #include "projtour/occupancy_map.hpp"
@@ -72,6 +73,61 @@ TEST(OccupancyGrid, ErrorsNameTheFile) {
   } catch (const std::runtime_error& e) {
     EXPECT_EQ(std::string(e.what()),
               (dir / "bad.yaml").string() + ":2:13: resolution: expected a number");
+  }
+}
+
+// The first message of load_occupancy_grid on `yaml` beside a 2 x 2 PGM, or "" when it loads.
+std::string map_error(const std::string& name, const std::string& yaml) {
+  const fs::path dir = temp_dir(name);
+  std::ofstream(dir / "tiny.pgm", std::ios::binary) << "P5\n2 2\n255\n" << std::string(4, '\xff');
+  std::ofstream(dir / "map.yaml") << yaml;
+  try {
+    load_occupancy_grid(dir / "map.yaml");
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    const std::string prefix = (dir / "map.yaml").string();
+    return what.rfind(prefix, 0) == 0 ? "map.yaml" + what.substr(prefix.size()) : what;
+  }
+  return "";
+}
+
+TEST(OccupancyGrid, DuplicateKeyInAMapFileRefused) {
+  EXPECT_EQ(map_error("duplicate",
+                      "image: tiny.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nresolution: 5\n"),
+            "map.yaml:4:1: resolution: duplicate key \"resolution\" (first at line 2)");
+}
+
+TEST(OccupancyGrid, ThresholdsInTheWrongOrderRefused) {
+  const std::string head = "image: tiny.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n";
+  EXPECT_EQ(map_error("thresholds", head + "occupied_thresh: 0.2\nfree_thresh: 0.6\n"),
+            "map.yaml:4:18: occupied_thresh: expected free_thresh < occupied_thresh, got "
+            "free_thresh 0.6 and occupied_thresh 0.2");
+  EXPECT_EQ(map_error("free_negative", head + "free_thresh: -0.1\n"),
+            "map.yaml:4:14: free_thresh: must be >= 0");
+  EXPECT_EQ(map_error("occupied_above_one", head + "occupied_thresh: 1.5\n"),
+            "map.yaml:4:18: occupied_thresh: must be <= 1");
+  EXPECT_EQ(map_error("thresholds_fine", head + "occupied_thresh: 1\nfree_thresh: 0\n"), "");
+}
+
+TEST(OccupancyGrid, NonFiniteResolutionAndOriginRefused) {
+  EXPECT_EQ(map_error("resolution_inf", "image: tiny.pgm\nresolution: .inf\norigin: [0, 0, 0]\n"),
+            "map.yaml:2:13: resolution: expected a number");
+  EXPECT_EQ(map_error("origin_nan", "image: tiny.pgm\nresolution: 0.05\norigin: [0, .nan, 0]\n"),
+            "map.yaml:3:13: origin[1]: expected a number");
+}
+
+// 100 million cells is the bound: one pixel more is refused before the grid is made.
+TEST(OccupancyGrid, ImageAboveTheCellBoundRefused) {
+  const fs::path dir = temp_dir("huge");
+  ASSERT_TRUE(cv::imwrite((dir / "huge.png").string(), cv::Mat(10000, 10001, CV_8UC1, 255)));
+  std::ofstream(dir / "map.yaml") << "image: huge.png\nresolution: 0.05\norigin: [0, 0, 0]\n";
+  try {
+    load_occupancy_grid(dir / "map.yaml");
+    FAIL() << "expected a throw";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()), (dir / "map.yaml").string() +
+                                         ":1:8: image: the image is 10001 x 10000 pixels; a map "
+                                         "has at most 100000000 cells");
   }
 }
 

@@ -11,7 +11,9 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
+#include <sstream>
 #include <stdexcept>
 
 #include "projtour/path_planner.hpp"
@@ -44,6 +46,21 @@ bool ends_with(const std::string& s, const std::string& suffix) {
   throw std::runtime_error(where + ": " + field + ": " + message);
 }
 
+double as_number(const fs::path& file, const YAML::Node& node, const std::string& field) {
+  try {
+    const double value = node.as<double>();
+    if (std::isfinite(value)) return value;
+  } catch (const YAML::Exception&) {
+  }
+  fail_at(file, node, field, "expected a number");
+}
+
+std::string number_text(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
 double read_double(const fs::path& file, const YAML::Node& root, const std::string& key,
                    std::optional<double> fallback) {
   const YAML::Node node = root[key];
@@ -51,12 +68,26 @@ double read_double(const fs::path& file, const YAML::Node& root, const std::stri
     if (fallback) return *fallback;
     throw std::runtime_error(file.string() + ": missing \"" + key + "\" (ROS map_server YAML)");
   }
-  try {
-    return node.as<double>();
-  } catch (const YAML::Exception&) {
-    fail_at(file, node, key, "expected a number");
+  return as_number(file, node, key);
+}
+
+// yaml-cpp keeps the first of two equal keys without a word; map_server takes the last.
+void check_unique_keys(const fs::path& file, const YAML::Node& root) {
+  std::map<std::string, int> first_line;
+  for (const auto& kv : root) {
+    if (!kv.first.IsScalar()) continue;
+    const auto [it, inserted] = first_line.emplace(kv.first.Scalar(), kv.first.Mark().line + 1);
+    if (!inserted) {
+      fail_at(file, kv.first, kv.first.Scalar(),
+              "duplicate key \"" + kv.first.Scalar() + "\" (first at line " +
+                  std::to_string(it->second) + ")");
+    }
   }
 }
+
+// The Malaga campus map is 1888 x 2738 cells; 100 million cells (10 km^2 at 5 cm) is beyond
+// any building a tour is held in, and a gigabyte of grid is not a map but a mistake.
+constexpr long long kMaxMapCells = 100'000'000;
 
 // ROS map_server: image + resolution + origin [x, y, yaw], thresholds on occupancy probability.
 std::shared_ptr<COccupancyGridMap2D> load_ros_yaml(const fs::path& file) {
@@ -69,6 +100,7 @@ std::shared_ptr<COccupancyGridMap2D> load_ros_yaml(const fs::path& file) {
   }
   if (!root.IsMap())
     throw std::runtime_error(file.string() + ": expected a ROS map_server mapping");
+  check_unique_keys(file, root);
   const YAML::Node image_node = root["image"];
   if (!image_node.IsDefined() || !image_node.IsScalar()) {
     throw std::runtime_error(file.string() + ": missing \"image\" (ROS map_server YAML)");
@@ -81,15 +113,26 @@ std::shared_ptr<COccupancyGridMap2D> load_ros_yaml(const fs::path& file) {
   if (!origin.IsSequence() || origin.size() < 2) {
     fail_at(file, origin, "origin", "expected [x, y, yaw]");
   }
-  const double origin_x_m = origin[0].as<double>();
-  const double origin_y_m = origin[1].as<double>();
-  const double origin_yaw = origin.size() > 2 ? origin[2].as<double>() : 0.0;
+  const double origin_x_m = as_number(file, origin[0], "origin[0]");
+  const double origin_y_m = as_number(file, origin[1], "origin[1]");
+  const double origin_yaw = origin.size() > 2 ? as_number(file, origin[2], "origin[2]") : 0.0;
   if (std::abs(origin_yaw) > 1e-9) {
     fail_at(file, origin, "origin", "a rotated map (yaw != 0) is not supported");
   }
   const bool negate = read_double(file, root, "negate", 0.0) != 0.0;
   const double occupied_thresh = read_double(file, root, "occupied_thresh", 0.65);
   const double free_thresh = read_double(file, root, "free_thresh", 0.196);
+  if (free_thresh < 0.0) fail_at(file, root["free_thresh"], "free_thresh", "must be >= 0");
+  if (occupied_thresh > 1.0) {
+    fail_at(file, root["occupied_thresh"], "occupied_thresh", "must be <= 1");
+  }
+  if (!(free_thresh < occupied_thresh)) {
+    const YAML::Node where =
+        root["occupied_thresh"].IsDefined() ? root["occupied_thresh"] : root["free_thresh"];
+    fail_at(file, where, root["occupied_thresh"].IsDefined() ? "occupied_thresh" : "free_thresh",
+            "expected free_thresh < occupied_thresh, got free_thresh " + number_text(free_thresh) +
+                " and occupied_thresh " + number_text(occupied_thresh));
+  }
   const std::string mode =
       root["mode"].IsDefined() ? lower(root["mode"].as<std::string>()) : "trinary";
   if (mode != "trinary" && mode != "scale" && mode != "raw") {
@@ -99,6 +142,11 @@ std::shared_ptr<COccupancyGridMap2D> load_ros_yaml(const fs::path& file) {
   const cv::Mat pixels = cv::imread(image.string(), cv::IMREAD_GRAYSCALE);
   if (pixels.empty()) {
     fail_at(file, image_node, "image", "cannot read the image \"" + image.string() + "\"");
+  }
+  if (static_cast<long long>(pixels.cols) * pixels.rows > kMaxMapCells) {
+    fail_at(file, image_node, "image",
+            "the image is " + std::to_string(pixels.cols) + " x " + std::to_string(pixels.rows) +
+                " pixels; a map has at most " + std::to_string(kMaxMapCells) + " cells");
   }
   auto map = std::make_shared<COccupancyGridMap2D>();
   const double width_m = pixels.cols * resolution_m, height_m = pixels.rows * resolution_m;
