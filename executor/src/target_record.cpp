@@ -117,8 +117,10 @@ void from_json(const Json& j, CalibrateResult& c) {
   expect_object(j, "the value");
   reject_unknown(j, {"adopted", "decoded_blocks", "inliers", "rms_px", "change_mm", "change_deg",
                      "sequence_s", "time_ms"});
-  if (!j.at("adopted").is_boolean()) throw std::runtime_error("adopted: expected true or false");
-  c.adopted = j.at("adopted").get<bool>();
+  // required(), not at(): a missing key must be this file's runtime_error, not nlohmann's.
+  const Json& adopted = required(j, "adopted");
+  if (!adopted.is_boolean()) throw std::runtime_error("adopted: expected true or false");
+  c.adopted = adopted.get<bool>();
   c.decoded_blocks = int_at(j, "decoded_blocks");
   c.inliers = int_at(j, "inliers");
   c.rms_px = number_at(j, "rms_px");

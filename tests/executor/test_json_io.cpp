@@ -246,6 +246,9 @@ TEST(TargetRecordJson, RejectsFieldsOfTheWrongTypeOrUnknown) {
             "align: \"iterations\" is not an integer");
   EXPECT_EQ(error(head + R"("retries": 0, "projection_error_mm": {"after": 1}})"),
             "projection_error_mm: unknown field \"after\"");
+  // Regression: a calibration without "adopted" escaped as nlohmann's out_of_range.
+  EXPECT_EQ(error(head + R"("retries": 0, "calibration": {}})"),
+            "calibration: \"adopted\" is missing");
   EXPECT_EQ(error(head + R"("retries": 0, "localization_error": [1, 2]})"),
             "localization_error: the value is not an object but array");
 }
