@@ -69,6 +69,17 @@ class Command : public ::testing::Test {
     return options;
   }
   int projtour(const std::string& args) { return test::run(command(args)).status; }
+  // projtour with `args`, stopped right after it writes `marker` and sent SIGINT there: its exit
+  // status (-1 when it never reached the marker; its stderr is in stderr1.txt).
+  int interrupt_after(const std::string& args, const std::string& marker) {
+    test::ChildOptions options = command(args, "1");
+    options.stop_after_write = marker;
+    test::Child child(options);
+    if (!child.wait_stopped(std::chrono::seconds(60))) return -1;
+    child.signal(SIGINT);
+    child.resume();
+    return child.wait(std::chrono::seconds(60));
+  }
   std::string err() const { return read_text(dir_ / "stderr.txt"); }
   std::string out() const { return read_text(dir_ / "stdout.txt"); }
 
@@ -316,18 +327,12 @@ TEST_F(Command, SameSeedSameEventsAndReport) {
 TEST_F(Command, InterruptThenResume) {
   const fs::path run = dir_ / "run";
   const std::string mission = kSource + "/missions/scripted_tour.yaml";
-  {
-    // Stopped by the support library's shim right after aim of pillar begins, so the SIGINT
-    // lands there on any machine.
-    test::ChildOptions options =
-        command("run " + mission + " --speed 4 --out " + run.string(), "1");
-    options.stop_after_write = "\"state\": \"tour/visit/aim\", \"target\": \"pillar\"";
-    test::Child child(options);
-    ASSERT_TRUE(child.wait_stopped(std::chrono::seconds(30))) << child.err();
-    child.signal(SIGINT);
-    child.resume();
-    ASSERT_EQ(child.wait(std::chrono::seconds(60)), 130) << child.err();
-  }
+  // Stopped by the support library's shim right after aim of pillar begins, so the SIGINT
+  // lands there on any machine.
+  ASSERT_EQ(interrupt_after("run " + mission + " --speed 4 --out " + run.string(),
+                            "\"state\": \"tour/visit/aim\", \"target\": \"pillar\""),
+            130)
+      << read_text(dir_ / "stderr1.txt");
 
   const Json checkpoint = read_json_file(run / "checkpoint.json");
   ASSERT_EQ(checkpoint.at("done").size(), 1u);
@@ -642,16 +647,10 @@ TEST_F(Command, SecondRunOrResumeOnALockedDirectoryNamesTheHolder) {
 TEST_F(Command, PlantedSymlinkIsRefusedNotWrittenThrough) {
   const fs::path run = dir_ / "run";
   const std::string mission = kSource + "/missions/scripted_tour.yaml";
-  {
-    test::ChildOptions options =
-        command("run " + mission + " --speed 4 --out " + run.string(), "1");
-    options.stop_after_write = "\"state\": \"tour/visit/aim\", \"target\": \"pillar\"";
-    test::Child child(options);
-    ASSERT_TRUE(child.wait_stopped(std::chrono::seconds(30))) << child.err();
-    child.signal(SIGINT);
-    child.resume();
-    ASSERT_EQ(child.wait(std::chrono::seconds(60)), 130) << child.err();
-  }
+  ASSERT_EQ(interrupt_after("run " + mission + " --speed 4 --out " + run.string(),
+                            "\"state\": \"tour/visit/aim\", \"target\": \"pillar\""),
+            130)
+      << read_text(dir_ / "stderr1.txt");
   const fs::path victim = dir_ / "victim.json";
   fs::remove(run / "report.json");
   fs::create_symlink(victim, run / "report.json");
@@ -678,16 +677,10 @@ TEST_F(Command, AppendOnlyFileContinuesAndNeverTruncates) {
 TEST_F(Command, ResumeAppendsTheSimulatedProjectorLog) {
   const fs::path run = dir_ / "run";
   const std::string mission = kSource + "/missions/minimal.yaml";
-  {
-    test::ChildOptions options =
-        command("run " + mission + " --dry-run --out " + run.string(), "1");
-    options.stop_after_write = "\"state\": \"tour/visit/verify\"";
-    test::Child child(options);
-    ASSERT_TRUE(child.wait_stopped(std::chrono::seconds(60))) << child.err();
-    child.signal(SIGINT);
-    child.resume();
-    ASSERT_EQ(child.wait(std::chrono::seconds(60)), 130) << child.err();
-  }
+  ASSERT_EQ(interrupt_after("run " + mission + " --dry-run --out " + run.string(),
+                            "\"state\": \"tour/visit/verify\""),
+            130)
+      << read_text(dir_ / "stderr1.txt");
   const std::string first = read_text(run / "sim_projector_log.jsonl");
   const std::string first_events = read_text(run / "events.jsonl");
   ASSERT_FALSE(first.empty());
