@@ -81,7 +81,8 @@ const Json& report_target(const Json& report, const std::string& id) {
 }
 
 std::vector<std::string> projector_safety_problems(const fs::path& run_dir,
-                                                   const std::vector<Json>& events) {
+                                                   const std::vector<Json>& events,
+                                                   std::size_t first_log_line) {
   // Mission seconds in the projector log are printed with six significant digits.
   constexpr double kSlackS = 0.01;
   // The steps that light the projector: the structured light, the verification, the content.
@@ -110,8 +111,13 @@ std::vector<std::string> projector_safety_problems(const fs::path& run_dir,
 
   std::vector<std::string> problems;
   const std::vector<Json> log = read_jsonl(run_dir / "sim_projector_log.jsonl");
+  if (first_log_line > log.size()) {
+    return {"sim_projector_log.jsonl has " + std::to_string(log.size()) +
+            " lines, fewer than the " + std::to_string(first_log_line) + " of the run before"};
+  }
   std::optional<double> lit_since_s;
-  for (const Json& e : log) {
+  for (auto it = log.begin() + static_cast<std::ptrdiff_t>(first_log_line); it != log.end(); ++it) {
+    const Json& e = *it;
     const double t_s = e.at("t").get<double>();
     const bool show = e.at("event").get<std::string>() == "show";
     const bool moving = e.at("base_moving").get<bool>() || e.at("head_moving").get<bool>();

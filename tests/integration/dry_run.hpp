@@ -45,8 +45,10 @@ const Json& report_target(const Json& report, const std::string& id);
 // sim_projector_log.jsonl (show .. next blank) starts and ends with the base and head still,
 // lies inside one `calibrate`, `verify` or `project` state of the same target (no other step
 // moves anything while lit),
-// and the projector is blank when the run ends.
+// and the projector is blank when the run ends. A resumed run appends to the log: its lines
+// start at `first_log_line`, and only they are checked against the resumed run's `events`.
 std::vector<std::string> projector_safety_problems(const fs::path& run_dir,
-                                                   const std::vector<Json>& events);
+                                                   const std::vector<Json>& events,
+                                                   std::size_t first_log_line = 0);
 
 }  // namespace projtour::integration

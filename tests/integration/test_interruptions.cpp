@@ -121,12 +121,14 @@ class Interruptions : public DryRunTest {
 
     // After the kill: every file whole, the report says interrupted, the projector safe.
     std::vector<Json> events1;
+    std::size_t log_lines1 = 0;
     try {
       const Json report = read_json(run / "report.json");
       EXPECT_EQ(report.at("outcome").get<std::string>(), "interrupted") << when;
       const Json checkpoint = read_json(run / "checkpoint.json");
       EXPECT_LE(checkpoint.at("done").size(), kTargets.size()) << when;
       events1 = read_jsonl(run / "events.jsonl");
+      log_lines1 = read_jsonl(run / "sim_projector_log.jsonl").size();
       for (const auto& p : projector_safety_problems(run, events1)) {
         ADD_FAILURE() << when << ": " << p;
       }
@@ -147,7 +149,7 @@ class Interruptions : public DryRunTest {
       const std::vector<Json> events = read_jsonl(run / "events.jsonl");
       EXPECT_GT(events.size(), events1.size()) << when;
       const std::vector<Json> events2(events.begin() + events1.size(), events.end());
-      for (const auto& p : projector_safety_problems(run, events2)) {
+      for (const auto& p : projector_safety_problems(run, events2, log_lines1)) {
         ADD_FAILURE() << when << " (resumed): " << p;
       }
       const Json report = read_json(run / "report.json");
