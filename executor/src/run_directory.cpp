@@ -23,13 +23,20 @@ std::string system_error(const std::string& what, const std::filesystem::path& p
   return what + " " + p.string() + ": " + std::strerror(err);
 }
 
-// What the directory holds besides the lock, for the message refusing it (a few names).
+// What the directory holds besides the lock (and an empty targets/, all a run refused or killed
+// before its first target leaves), for the message refusing it (a few names).
 std::vector<std::string> entries_besides_lock(const std::filesystem::path& dir) {
   std::vector<std::string> names;
   std::error_code ec;
   for (std::filesystem::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string name = it->path().filename().string();
-    if (name != kLockName) names.push_back(name);
+    if (name == kLockName) continue;
+    std::error_code ignored;
+    if (name == "targets" && !it->is_symlink(ignored) && it->is_directory(ignored) &&
+        std::filesystem::is_empty(it->path(), ignored)) {
+      continue;
+    }
+    names.push_back(name);
   }
   if (ec) throw RunDirectoryError(system_error("cannot read", dir, ec.value()));
   return names;
@@ -88,53 +95,58 @@ std::filesystem::path fresh_default_dir(const std::string& mission_name) {
                           std::to_string(kMaxSameSecond - 1) + " more exist");
 }
 
-std::string holder_of(int fd) {
+// The pid the holder wrote into .lock; the file only names it (the lock is on the directory,
+// so deleting .lock does not free it), and it is read without following a link or waiting on
+// a FIFO.
+std::string holder_of(const std::filesystem::path& dir) {
+  const std::filesystem::path lock = dir / kLockName;
+  const int fd = ::open(lock.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return "unknown";
+  struct stat st {};
   char pid[32] = {};
-  const ssize_t n = ::pread(fd, pid, sizeof pid - 1, 0);
+  const ssize_t n =
+      ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) ? ::pread(fd, pid, sizeof pid - 1, 0) : -1;
+  ::close(fd);
   std::string holder = n > 0 ? std::string(pid, static_cast<std::size_t>(n)) : "";
   while (!holder.empty() && (holder.back() == '\n' || holder.back() == ' ')) holder.pop_back();
-  return holder.empty() ? std::string("unknown") : holder;
+  const bool digits = !holder.empty() && std::all_of(holder.begin(), holder.end(),
+                                                     [](char c) { return c >= '0' && c <= '9'; });
+  return digits ? holder : std::string("unknown");
 }
 
-RunDirectoryError in_use(const std::filesystem::path& dir, const std::string& holder) {
-  return RunDirectoryError(dir.string() + " is in use by another projtour run (pid " + holder +
-                           "): one run directory, one run at a time");
+RunDirectoryError in_use(const std::filesystem::path& dir) {
+  return RunDirectoryError(dir.string() + " is in use by another projtour run (pid " +
+                           holder_of(dir) + "): one run directory, one run at a time");
 }
 
 // A run holding the directory is the first thing to say of it; the probe creates nothing.
 void refuse_if_held(const std::filesystem::path& dir) {
-  const std::filesystem::path lock = dir / kLockName;
-  const int fd = ::open(lock.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (fd < 0) return;
   const bool held = ::flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
-  const std::string holder = held ? holder_of(fd) : "";
   ::close(fd);
-  if (held) throw in_use(dir, holder);
+  if (held) throw in_use(dir);
 }
 
-int lock_or_refuse(const std::filesystem::path& dir) {
-  const std::filesystem::path lock = dir / kLockName;
-  const int fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0644);
-  if (fd < 0) {
-    throw RunDirectoryError(errno == ELOOP ? lock.string() +
-                                                 " is a symbolic link: projtour does not write "
-                                                 "through links"
-                                           : system_error("cannot lock", lock, errno));
+// The lock is the directory's own: flock on the held descriptor, which no rename or unlink of
+// a file inside can undo.
+std::unique_ptr<HeldRunDirectory> hold_and_lock(const std::filesystem::path& dir) {
+  std::unique_ptr<HeldRunDirectory> held;
+  try {
+    held = std::make_unique<HeldRunDirectory>(dir);
+  } catch (const std::exception& e) {
+    throw RunDirectoryError(e.what());
   }
-  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
-    const int err = errno;
-    const std::string holder = holder_of(fd);
-    ::close(fd);
-    if (err != EWOULDBLOCK) throw RunDirectoryError(system_error("cannot lock", lock, err));
-    throw in_use(dir, holder);
+  if (::flock(held->fd(), LOCK_EX | LOCK_NB) != 0) {
+    if (errno != EWOULDBLOCK) throw RunDirectoryError(system_error("cannot lock", dir, errno));
+    throw in_use(dir);
   }
-  const std::string pid = std::to_string(::getpid()) + "\n";
-  if (::ftruncate(fd, 0) != 0 || ::pwrite(fd, pid.data(), pid.size(), 0) < 0) {
-    const int err = errno;
-    ::close(fd);
-    throw RunDirectoryError(system_error("cannot write", lock, err));
+  try {
+    write_run_file(dir / kLockName, std::to_string(::getpid()) + "\n");
+  } catch (const std::exception& e) {
+    throw RunDirectoryError(e.what());
   }
-  return fd;
+  return held;
 }
 
 }  // namespace
@@ -165,7 +177,7 @@ RunDirectory RunDirectory::claim(const std::optional<std::filesystem::path>& out
     std::filesystem::create_directories(dir, ec);
     if (ec) throw RunDirectoryError(system_error("cannot create", dir, ec.value()));
   }
-  RunDirectory claimed(dir, lock_or_refuse(dir));
+  RunDirectory claimed(dir, hold_and_lock(dir));
   // Under the lock, again: another run may have started between the look and the lock.
   if (!resume) {
     refuse_if_it_holds_a_run(dir);
@@ -180,11 +192,15 @@ RunDirectory RunDirectory::claim(const std::optional<std::filesystem::path>& out
   return claimed;
 }
 
-RunDirectory::RunDirectory(RunDirectory&& other) noexcept
-    : path_(std::move(other.path_)), lock_fd_(std::exchange(other.lock_fd_, -1)) {}
+RunDirectory::RunDirectory(std::filesystem::path path, std::unique_ptr<HeldRunDirectory> held)
+    : path_(std::move(path)), held_(std::move(held)) {}
 
-RunDirectory::~RunDirectory() {
-  if (lock_fd_ >= 0) ::close(lock_fd_);
+RunDirectory::RunDirectory(RunDirectory&& other) noexcept = default;
+
+RunDirectory::~RunDirectory() = default;
+
+std::string RunDirectory::first_write_failure() const {
+  return held_ ? held_->first_failure() : std::string();
 }
 
 }  // namespace projtour

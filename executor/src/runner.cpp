@@ -540,6 +540,8 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
       watchdog.publish(snapshot());
       trace.sample();
       if (write_failure.empty() && !events.error().empty()) write_failure = events.error();
+      // Any writer's, a plugin's that only warned included.
+      if (write_failure.empty()) write_failure = claimed->first_write_failure();
       if (!write_failure.empty() && !cancelled_on_failure) {
         cancelled_on_failure = true;
         err << "\nprojtour: " << write_failure << "; ending the run\n";
@@ -549,7 +551,9 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
       // Winding down is not paced: the behaviours' cancel grace is mission time, and the safe
       // stop must not wait on wall time for it (a slowed dry run would take minutes).
       if (speed > 0 && !stopping) {
-        const double ahead_s = (clock.now_s() - mission_start_s) / speed;
+        // Bounded, so that a speed of 1e-300 stays a long sleep, not an overflowed cast.
+        constexpr double kMaxAheadS = 1e9;
+        const double ahead_s = std::min((clock.now_s() - mission_start_s) / speed, kMaxAheadS);
         paced_sleep_until(pace_start +
                           std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                               std::chrono::duration<double>(ahead_s)));
@@ -567,6 +571,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   // A run whose files could not all be written failed, whatever its tour did: it ends aborted
   // with the reason, writing what it still can.
   write_checkpoint();
+  if (write_failure.empty()) write_failure = claimed->first_write_failure();
   const TourOutcome outcome = write_failure.empty() ? executor.outcome() : TourOutcome::aborted;
   RunSummary summary = make_summary(outcome);
   if (!write_failure.empty()) summary.reason = write_failure;

@@ -2,6 +2,7 @@
 // the build's plugin directory, and exit codes and the files of the run directory are checked.
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/stat.h>
 
 #include <chrono>
 #include <filesystem>
@@ -665,6 +666,126 @@ TEST_F(Command, PlantedSymlinkIsRefusedNotWrittenThrough) {
   EXPECT_FALSE(fs::exists(victim));
 }
 
+// Regression: a directory link planted while the run went on (targets/ replaced by a link to
+// another directory) was written through, and the run exited 0.
+TEST_F(Command, DirectoryLinkPlantedDuringARunIsRefusedAndEndsTheRun) {
+  const fs::path run = dir_ / "run";
+  const fs::path victim = dir_ / "victim";
+  fs::create_directories(victim);
+  test::ChildOptions options = command(
+      "run " + kSource + "/missions/scripted_tour.yaml --speed 4 --out " + run.string(), "1");
+  options.stop_after_write = "\"state\": \"tour/visit/aim\"";
+  test::Child child(options);
+  ASSERT_TRUE(child.wait_stopped(std::chrono::seconds(30))) << child.err();
+  fs::rename(run / "targets", run / "targets.moved");
+  fs::create_directory_symlink(victim, run / "targets");
+  child.resume();
+  EXPECT_EQ(child.wait(std::chrono::seconds(60)), 1) << child.err();
+  EXPECT_TRUE(fs::is_empty(victim));
+  const Json report = read_json_file(run / "report.json");
+  EXPECT_EQ(report.at("outcome").get<std::string>(), "aborted");
+  EXPECT_NE(report.at("reason").get<std::string>().find(
+                "refusing to write through the symbolic link " + (run / "targets").string()),
+            std::string::npos)
+      << dump_json(report, 2);
+}
+
+// Regression: deleting .lock let a second run into a directory a run held.
+TEST_F(Command, DeletingTheLockFileDoesNotFreeTheDirectory) {
+  const fs::path run = dir_ / "run";
+  const std::string mission = kSource + "/missions/scripted_tour.yaml";
+  test::ChildOptions options = command("run " + mission + " --speed 4 --out " + run.string(), "1");
+  options.stop_after_write = "\"state\": \"tour/visit/aim\"";
+  test::Child holder(options);
+  ASSERT_TRUE(holder.wait_stopped(std::chrono::seconds(30))) << holder.err();
+  fs::remove(run / ".lock");
+  EXPECT_EQ(projtour("run " + mission + " --resume --speed 1000 --out " + run.string()), 2);
+  EXPECT_NE(err().find("is in use by another projtour run (pid unknown)"), std::string::npos)
+      << err();
+  holder.resume();
+  EXPECT_EQ(holder.wait(std::chrono::seconds(60)), 0) << holder.err();
+}
+
+// --out may itself be a link to a directory: the user's choice, followed once at the claim.
+TEST_F(Command, OutMayBeALinkToADirectory) {
+  const fs::path real = dir_ / "real";
+  fs::create_directories(real);
+  fs::create_directory_symlink(real, dir_ / "link");
+  ASSERT_EQ(projtour("run " + kSource + "/missions/scripted_tour.yaml --speed 1000 --out " +
+                     (dir_ / "link").string()),
+            0)
+      << err();
+  EXPECT_EQ(read_json_file(real / "report.json").at("outcome").get<std::string>(), "completed");
+}
+
+// What a run refused or stopped before its first target leaves (.lock, an empty targets/) is
+// no run: a new run may have the directory.
+TEST_F(Command, ADirectoryWithOnlyALockAndNoTargetsIsFree) {
+  const fs::path run = dir_ / "run";
+  fs::create_directories(run / "targets");
+  std::ofstream(run / ".lock") << "12345\n";
+  EXPECT_EQ(projtour("run " + kSource + "/missions/scripted_tour.yaml --speed 1000 --out " +
+                     run.string()),
+            0)
+      << err();
+}
+
+// Every run file beneath a held directory that fails is kept, whoever caught the throw.
+TEST_F(Command, HeldRunDirectoryKeepsTheFirstFailureEvenWhenTheWriterOnlyWarned) {
+  const fs::path run = dir_ / "run";
+  fs::create_directories(run / "targets");
+  const fs::path victim = dir_ / "victim";
+  fs::create_directories(victim);
+  fs::create_directory_symlink(victim, run / "targets" / "sign");
+  HeldRunDirectory held(run);
+  EXPECT_EQ(held.first_failure(), "");
+  write_run_file(run / "report.json", "{}\n");
+  make_run_directory(run / "targets" / "pillar" / "deep");
+  EXPECT_EQ(held.first_failure(), "");
+  try {
+    write_run_file(run / "targets" / "sign" / "picture.png", "x");
+  } catch (const std::exception&) {
+    // a plugin that only warns
+  }
+  EXPECT_THROW(make_run_directory(run / "targets" / "sign" / "more"), std::runtime_error);
+  EXPECT_THROW(AppendOnlyFile(run / "targets" / "sign" / "log.jsonl"), std::runtime_error);
+  EXPECT_EQ(held.first_failure(), "refusing to write through the symbolic link " +
+                                      (run / "targets" / "sign").string() +
+                                      " (a run directory holds only the run's own files)");
+  EXPECT_TRUE(fs::is_empty(victim));
+}
+
+// Regression: a FIFO planted as a log hung the run; a hard link made its appends land in a
+// file outside the run.
+TEST_F(Command, AppendOnlyFileRefusesAFifoAndAHardLink) {
+  const fs::path fifo = dir_ / "events.jsonl";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  EXPECT_THROW(AppendOnlyFile{fifo}, std::runtime_error);
+  const fs::path outside = dir_ / "outside.txt";
+  std::ofstream(outside) << "mine\n";
+  fs::create_hard_link(outside, dir_ / "log.jsonl");
+  try {
+    AppendOnlyFile log(dir_ / "log.jsonl");
+    ADD_FAILURE() << "a hard-linked log was opened";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("it has another hard link"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(read_text(outside), "mine\n");
+}
+
+// Regression: after a full disk cut a line short, a resumed run appended straight after it,
+// leaving a line no reader could parse.
+TEST_F(Command, AppendOnlyFileCutsAPartialLastLineBeforeContinuing) {
+  const fs::path log = dir_ / "log.jsonl";
+  std::ofstream(log) << "{\"a\": 1}\n{\"b\": ";
+  AppendOnlyFile(log).append("{\"c\": 3}\n");
+  EXPECT_EQ(read_text(log), "{\"a\": 1}\n{\"c\": 3}\n");
+  std::ofstream(dir_ / "none.jsonl") << "no newline at all";
+  AppendOnlyFile(dir_ / "none.jsonl").append("x\n");
+  EXPECT_EQ(read_text(dir_ / "none.jsonl"), "x\n");
+}
+
 // An append-only log keeps what it holds: a resumed run continues it.
 TEST_F(Command, AppendOnlyFileContinuesAndNeverTruncates) {
   const fs::path log = dir_ / "log.jsonl";
@@ -695,7 +816,8 @@ TEST_F(Command, ResumeAppendsTheSimulatedProjectorLog) {
 // not look at the signal). Measured from the signal to the cancel the tick loop prints.
 TEST_F(Command, SignalActsWithinATenthOfASecondAtAnySpeed) {
   const std::string mission = kSource + "/missions/minimal.yaml";
-  for (const char* speed : {"0.01", "1e-9"}) {
+  // 1e-300 also pins the pacing deadline's cast, which overflowed below about 1e-12.
+  for (const char* speed : {"0.01", "1e-9", "1e-300"}) {
     const fs::path run = dir_ / (std::string("run") + speed);
     test::ChildOptions options =
         command("run " + mission + " --dry-run --speed " + speed + " --out " + run.string(), speed);
@@ -757,6 +879,10 @@ TEST_F(Command, AFailedWriteEndsTheRunAsFailed) {
             "cannot write " + (run / "events.jsonl").string() + ": File too large");
   const std::string safe_stops = read_text(run / "test_drivers.log");
   EXPECT_NE(safe_stops.find("test_base safe_stop"), std::string::npos) << safe_stops;
+  // The append cut short was undone: every line of the log is whole.
+  const std::string events = read_text(run / "events.jsonl");
+  EXPECT_TRUE(events.empty() || events.back() == '\n');
+  EXPECT_NO_THROW(read_jsonl(run / "events.jsonl"));
 }
 
 }  // namespace

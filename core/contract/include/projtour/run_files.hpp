@@ -6,10 +6,38 @@
 // so that no caller can lose a file without a word.
 #include <cstddef>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <string_view>
 
 namespace projtour {
+
+// The run directory, held open for the run's life by whoever claimed it (the executor). Run
+// files beneath a held directory are reached from its descriptor one name at a time, none
+// through a symbolic link, so a link planted while the run goes on (targets/<id> replaced by a
+// link to /etc) is refused, naming it, instead of written through. The directory itself is
+// resolved once, when held: an --out that is a link to a directory was the user's own choice,
+// made before the run began.
+//
+// The first failure of any run file beneath it (a refused link, a full disk) is kept: the run
+// ends failed on it even when the writer -- a plugin drawing a picture -- only warned.
+class HeldRunDirectory {
+ public:
+  explicit HeldRunDirectory(const std::filesystem::path& dir);  // throws std::runtime_error
+  ~HeldRunDirectory();
+  HeldRunDirectory(const HeldRunDirectory&) = delete;
+  HeldRunDirectory& operator=(const HeldRunDirectory&) = delete;
+
+  // Open for this object's life (the run's lock is taken on it).
+  int fd() const;
+  // The first run file that failed beneath the directory, with the reason; "" while none has.
+  std::string first_failure() const;
+
+  struct Entry;
+
+ private:
+  std::shared_ptr<Entry> entry_;
+};
 
 // The whole file at once: written to a temporary file beside `file` (created exclusively,
 // never through a link), flushed and fsync'ed, then renamed over `file`, so a reader never sees
@@ -21,8 +49,11 @@ void write_run_file(const std::filesystem::path& file, std::string_view bytes);
 // run claimed it; this keeps a link planted since then from being written through).
 void make_run_directory(const std::filesystem::path& dir);
 
-// A log that only grows: opened with O_APPEND (created if missing, never truncated, never
-// through a link), each append written whole or throwing. A resumed run continues the file.
+// A log of lines that only grows: opened with O_APPEND (created if missing, never through a
+// link; a FIFO, a device or a file with another hard link is refused), each append written
+// whole or throwing. A resumed run continues the file; a last line left partial (a full disk,
+// a kill mid-write) is cut off first, so that every line stays whole. An append that fails is
+// undone to the file's length before it.
 class AppendOnlyFile {
  public:
   AppendOnlyFile() = default;
