@@ -217,8 +217,9 @@ void check_standoff_and_aim(const LoadedMission& mission, const TargetSpec& targ
 }
 
 // Decoded as the project step will: an image whole, a video's first frame.
-void check_content(const TargetSpec& target, const TargetProblems& problems) {
-  const std::string file = target.content.string();
+void check_content(const std::filesystem::path& content, const std::string& field,
+                   const TargetProblems& problems) {
+  const std::string file = content.string();
   // The loader let an image extension through only with an image signature behind it.
   const bool image = cv::haveImageReader(file);
   cv::Mat first;
@@ -229,14 +230,13 @@ void check_content(const TargetSpec& target, const TargetProblems& problems) {
     if (!video.isOpened() || !video.read(first)) first.release();
   }
   if (first.empty()) {
-    problems.error("content",
-                   std::string("cannot decode ") + file +
-                       (image ? "; expected an image OpenCV can decode"
-                              : "; expected a video whose first frame OpenCV can decode"));
+    problems.error(field, std::string("cannot decode ") + file +
+                              (image ? "; expected an image OpenCV can decode"
+                                     : "; expected a video whose first frame OpenCV can decode"));
   } else if (first.cols < 2 || first.rows < 2) {
-    problems.error("content", file + " is " + std::to_string(first.cols) + "x" +
-                                  std::to_string(first.rows) +
-                                  " pixels; expected at least 2x2 (a homography needs an area)");
+    problems.error(field, file + " is " + std::to_string(first.cols) + "x" +
+                              std::to_string(first.rows) +
+                              " pixels; expected at least 2x2 (a homography needs an area)");
   }
 }
 
@@ -266,7 +266,16 @@ void check_run_assets(const LoadedMission& mission, Diagnostics& diag) {
     check_model_points_shape(target, problems);
     if (mesh != nullptr) check_model_points_on_surface(target, *mesh, problems);
     check_standoff_and_aim(mission, target, mesh, problems);
-    check_content(target, problems);
+    // A content list's every item: a run shows each in its turn.
+    const std::vector<std::filesystem::path>* list =
+        i < mission.target_times.size() ? &mission.target_times[i].content : nullptr;
+    if (list != nullptr && list->size() > 1) {
+      for (std::size_t k = 0; k < list->size(); ++k) {
+        check_content((*list)[k], "content[" + std::to_string(k) + "]", problems);
+      }
+    } else {
+      check_content(target.content, "content", problems);
+    }
   }
 }
 

@@ -126,6 +126,15 @@ TEST_F(RunChecks, UndecodableVideo) {
                           "/clip.mp4; expected a video whose first frame OpenCV can decode"));
 }
 
+// Every item of a content list is decoded, each reported at its place in the list.
+TEST_F(RunChecks, UndecodableItemOfAContentList) {
+  write("clip.mp4", std::string(4096, 'v'));
+  EXPECT_THAT(
+      problems(replace(kChecksMission, "content: sale.png", "content: [sale.png, clip.mp4]")),
+      ElementsAre(at("10:25: targets[0].content[1]: cannot decode ") + dir +
+                  "/clip.mp4; expected a video whose first frame OpenCV can decode"));
+}
+
 TEST_F(RunChecks, ModelPointFiveCentimetresOffTheSurface) {
   EXPECT_THAT(problems(replace(kChecksMission, "[0.1, 0.05, -0.05]", "[0.15, 0.05, -0.05]")),
               ElementsAre(at("9:59: targets[0].model_points[2]: point (0.15, 0.05, -0.05) lies "

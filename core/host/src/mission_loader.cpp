@@ -1,6 +1,8 @@
 // The mission file (format in DESIGN.md "Mission files").
 #include "projtour/mission_loader.hpp"
 
+#include <array>
+
 #include <opencv2/imgcodecs.hpp>
 
 #include "loader_fields.hpp"
@@ -22,6 +24,13 @@ const std::vector<std::string> kModelExtensions = {".ply", ".off"};
 constexpr double kMaxDwellS = 86400.0;
 constexpr double kMaxStandoffM = 20.0;
 constexpr double kMaxToleranceMm = 1000.0;
+// All day (README "All day"): a day has at most 10,000 rounds of even a one-target tour (8.6 s
+// each); a pause of a day between rounds or 24 windows a day is no schedule anyone means; 64
+// items of content per target is a playlist, more is a mistake in the list.
+constexpr long long kMaxRounds = 10000;
+constexpr double kMaxPauseS = 86400.0;
+constexpr std::size_t kMaxWindows = 24;
+constexpr std::size_t kMaxContentItems = 64;
 const std::vector<std::string> kImageExtensions = {".png", ".jpg", ".jpeg", ".bmp"};
 const std::vector<std::string> kVideoExtensions = {".mp4", ".avi", ".mkv", ".webm"};
 
@@ -64,6 +73,36 @@ std::optional<double> read_bounded(const YamlField& f, double most) {
   return v;
 }
 
+// "HH:MM" or "HH:MM:SS" from 00:00 to 24:00 as seconds after midnight; nullopt when it is not
+// one.
+std::optional<int> parse_time_of_day(const std::string& text) {
+  if (text.size() != 5 && text.size() != 8) return std::nullopt;
+  std::array<int, 3> parts{0, 0, 0};
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (i % 3 == 2) {
+      if (c != ':') return std::nullopt;
+    } else if (c < '0' || c > '9') {
+      return std::nullopt;
+    } else {
+      parts[i / 3] = parts[i / 3] * 10 + (c - '0');
+    }
+  }
+  const auto [h, m, sec] = parts;
+  if (m > 59 || sec > 59 || h > 24 || (h == 24 && (m != 0 || sec != 0))) return std::nullopt;
+  return h * 3600 + m * 60 + sec;
+}
+
+std::optional<int> read_time_of_day(const YamlField& f) {
+  const auto text = f.as_string(false);
+  if (!text) return std::nullopt;
+  const auto t = parse_time_of_day(*text);
+  if (!t)
+    f.error("expected a time of day \"HH:MM\" or \"HH:MM:SS\" from 00:00 to 24:00, got \"" + *text +
+            "\"");
+  return t;
+}
+
 // Paths, marks and the checks that need more than one field of a mission.
 class MissionReader {
  public:
@@ -81,7 +120,8 @@ class MissionReader {
       return std::nullopt;
     }
     if (!root_.expect_map()) return std::nullopt;
-    loader::check_keys(root_, {"mission", "map", "robot", "start", "targets", "order", "machine"});
+    loader::check_keys(
+        root_, {"mission", "map", "robot", "start", "targets", "order", "machine", "schedule"});
 
     if (auto name = note(root_["mission"]).as_string()) {
       if (name->empty()) {
@@ -108,6 +148,7 @@ class MissionReader {
       mission_.order = *order;
     }
     read_machine(note(root_["machine"]));
+    read_schedule(note(root_["schedule"]));
 
     if (diag_.error_count() > errors_before) return std::nullopt;
     return std::move(mission_);
@@ -138,7 +179,7 @@ class MissionReader {
                                         std::map<std::string, int>& first_line_of_id) {
     if (!f.expect_map()) return std::nullopt;
     loader::check_keys(f, {"id", "model", "pose", "model_points", "content", "standoff_m",
-                           "dwell_s", "tolerance_mm"});
+                           "dwell_s", "tolerance_mm", "hours", "rotate"});
     const std::size_t errors_before = diag_.error_count();
     TargetSpec target;
 
@@ -159,12 +200,19 @@ class MissionReader {
     }
     if (auto T = loader::read_pose(note(f["pose"]))) target.T_map_model = *T;
     read_model_points(note(f["model_points"]), target);
-    if (auto path = read_content(note(f["content"]))) target.content = *path;
+    TargetTimes times;
+    read_content_list(note(f["content"]), times);
+    if (!times.content.empty()) target.content = times.content.front();
+    if (auto rotate = note(f["rotate"]).as_enum({"per_visit", "per_round"}, false)) {
+      times.per_round = *rotate == "per_round";
+    }
+    read_hours(note(f["hours"]), times);
     if (auto v = read_bounded(note(f["standoff_m"]), kMaxStandoffM)) target.standoff_m = *v;
     if (auto v = read_bounded(note(f["dwell_s"]), kMaxDwellS)) target.dwell_s = *v;
     if (auto v = read_bounded(note(f["tolerance_mm"]), kMaxToleranceMm)) target.tolerance_mm = *v;
 
     if (diag_.error_count() > errors_before) return std::nullopt;
+    mission_.target_times.push_back(std::move(times));
     return target;
   }
 
@@ -212,6 +260,86 @@ class MissionReader {
       return std::nullopt;
     }
     return path;
+  }
+
+  // One image or video, or a list of them shown in turn.
+  void read_content_list(const YamlField& f, TargetTimes& times) {
+    if (!f.is_sequence()) {
+      if (auto path = read_content(f)) times.content.push_back(*path);
+      return;
+    }
+    if (f.size() == 0 || f.size() > kMaxContentItems) {
+      f.error("expected 1 to " + std::to_string(kMaxContentItems) + " images or videos, got " +
+              std::to_string(f.size()));
+      return;
+    }
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      if (auto path = read_content(note(f[i]))) times.content.push_back(*path);
+    }
+  }
+
+  void read_hours(const YamlField& f, TargetTimes& times) {
+    if (!f.expect_sequence(false)) return;
+    if (f.size() == 0 || f.size() > kMaxWindows) {
+      f.error("expected 1 to " + std::to_string(kMaxWindows) + " windows \"HH:MM-HH:MM\", got " +
+              std::to_string(f.size()));
+      return;
+    }
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      const YamlField w = note(f[i]);
+      const auto text = w.as_string();
+      if (!text) continue;
+      const auto dash = text->find('-');
+      const auto begin = parse_time_of_day(text->substr(0, dash));
+      const auto end =
+          dash == std::string::npos ? std::nullopt : parse_time_of_day(text->substr(dash + 1));
+      if (!begin || !end) {
+        w.error("expected a window \"HH:MM-HH:MM\" of times from 00:00 to 24:00, got \"" + *text +
+                "\"");
+      } else if (*begin >= *end) {
+        w.error(
+            "expected a window that ends after it begins (one day, not across midnight), got \"" +
+            *text + "\"");
+      } else {
+        times.hours.push_back(TimeWindow{*begin, *end});
+      }
+    }
+  }
+
+  void read_schedule(const YamlField& f) {
+    if (!f.expect_map(false)) return;
+    loader::check_keys(f, {"rounds", "until", "start", "pause_s"});
+    MissionSchedule& schedule = mission_.schedule;
+    schedule.written = true;
+    const YamlField rounds = note(f["rounds"]);
+    if (auto n = loader::read_integer(rounds, false, Sign::positive)) {
+      if (*n > kMaxRounds) {
+        rounds.error("expected an integer > 0 and at most " + std::to_string(kMaxRounds) +
+                     ", got " + rounds.node().Scalar());
+      } else {
+        schedule.rounds = *n;
+      }
+    }
+    const YamlField until = note(f["until"]);
+    schedule.until_s = read_time_of_day(until);
+    const YamlField start = note(f["start"]);
+    if (auto t = read_time_of_day(start)) schedule.start_s = *t;
+    if (auto v = read_number(note(f["pause_s"]), false, Sign::non_negative)) {
+      if (*v > kMaxPauseS) {
+        f["pause_s"].error("expected a number >= 0 and at most " +
+                           loader::format_number(kMaxPauseS) + ", got " +
+                           f["pause_s"].node().Scalar());
+      } else {
+        schedule.pause_s = *v;
+      }
+    }
+    if (!rounds.defined() && !until.defined()) {
+      f.error("expected rounds (how many passes) or until (a time of day), or both");
+    }
+    if (schedule.until_s && start.defined() && *schedule.until_s <= schedule.start_s) {
+      until.error("expected a time after start (" + start.node().Scalar() +
+                  "): a schedule does not cross midnight");
+    }
   }
 
   void read_machine(const YamlField& f) {

@@ -9,6 +9,7 @@
 
 #include <map>
 #include <string>
+#include <vector>
 
 #include "projtour/diagnostics.hpp"
 #include "projtour/mission.hpp"
@@ -41,6 +42,30 @@ struct MachineSource {
   std::string path;  // its field path ("machine" inline, "" when a file of its own)
 };
 
+// A time of day, [begin_s, end_s) in seconds after local midnight ("11:30-14:00").
+struct TimeWindow {
+  int begin_s = 0;
+  int end_s = 0;
+};
+
+// What a target's visits show and when (mission `content:` list, `rotate:`, `hours:`).
+struct TargetTimes {
+  // The content list in the order written; the single form is a list of one. TargetSpec's
+  // content is its first item.
+  std::vector<std::filesystem::path> content;
+  bool per_round = false;         // rotate: per_round (item (round - 1) mod N), else per_visit
+  std::vector<TimeWindow> hours;  // empty: any time
+};
+
+// The mission's `schedule:` (README "All day"). Without one the tour is one pass, unnumbered.
+struct MissionSchedule {
+  bool written = false;  // rounds are numbered in the report, events and checkpoint
+  std::optional<long long> rounds;
+  std::optional<int> until_s;  // no round after the first begins at or after it
+  int start_s = 9 * 3600;      // a dry run's time of day at mission time 0
+  double pause_s = 0.0;        // between rounds, the robot where it is
+};
+
 // The mission file: the view plugins get (MissionSpec, robot included) and what only the host
 // uses. Plugins are handed the MissionSpec base, so none of this reaches them.
 struct LoadedMission : MissionSpec {
@@ -51,6 +76,8 @@ struct LoadedMission : MissionSpec {
   // Where each field was written, by field path ("start", "targets[2].pose", ...), so checks
   // made after loading (map, reachability, plugins) can point at the line.
   std::map<std::string, SourceMark> marks;
+  MissionSchedule schedule;
+  std::vector<TargetTimes> target_times;  // by target index, one per target
 
   // The field's mark, or the file as a whole when it was not written.
   SourceMark mark_of(const std::string& field_path) const;
