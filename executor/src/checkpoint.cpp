@@ -3,7 +3,9 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <stdexcept>
+#include <utility>
 
 namespace projtour {
 
@@ -214,6 +216,7 @@ Json checkpoint_to_json(const Checkpoint& checkpoint) {
   }
   j["done"] = std::move(done);
   j["current_target"] = checkpoint.current_target ? Json(*checkpoint.current_target) : Json();
+  if (checkpoint.round) j["round"] = *checkpoint.round;
   return j;
 }
 
@@ -233,7 +236,7 @@ Checkpoint parse_checkpoint(const std::string& text, const std::string& source,
   const Json j = parse_json(text, source);
   try {
     expect_object(j, "the checkpoint");
-    reject_unknown(j, {"mission", "seed", "mission_s", "done", "current_target"});
+    reject_unknown(j, {"mission", "seed", "mission_s", "done", "current_target", "round"});
     Checkpoint c;
     c.mission = string_at(j, "mission");
     if (c.mission != mission.name) {
@@ -242,10 +245,19 @@ Checkpoint parse_checkpoint(const std::string& text, const std::string& source,
     }
     c.seed = uint64_at(j, "seed");
     c.mission_s = time_at(j, "mission_s", "mission_s", kMaxCheckpointMissionS);
+    if (j.contains("round")) {
+      const Json& round = j.at("round");
+      // The loader's bound on rounds (mission_loader.cpp kMaxRounds).
+      if (!round.is_number_unsigned() || round.get<std::uint64_t>() < 1 ||
+          round.get<std::uint64_t>() > 10000) {
+        bad("round", "expected a round from 1 to 10000, got " + dump_json(round));
+      }
+      c.round = round.get<int>();
+    }
     const Json& done = required(j, "done");
     if (!done.is_array()) throw std::runtime_error("\"done\" is not an array");
-    // Where each target was first found done, for the message naming a second.
-    std::vector<std::optional<std::size_t>> done_at(mission.targets.size());
+    // Where each target was first found done in each round, for the message naming a second.
+    std::map<std::pair<std::size_t, int>, std::size_t> done_at;
     for (std::size_t k = 0; k < done.size(); ++k) {
       const std::string at = "done[" + std::to_string(k) + "]";
       Json entry = done[k];
@@ -264,11 +276,18 @@ Checkpoint parse_checkpoint(const std::string& text, const std::string& source,
         bad(at, e.what());
       }
       r.index = index_of(r.id, at + ".id");
-      if (done_at[r.index]) {
-        bad(at + ".id", json_quoted(r.id) + " is done already (done[" +
-                            std::to_string(*done_at[r.index]) + "])");
+      if (c.round ? r.round < 1 || r.round > *c.round : r.round != 0) {
+        bad(at + ".round", c.round
+                               ? "expected a round from 1 to the checkpoint's " +
+                                     std::to_string(*c.round) + ", got " + std::to_string(r.round)
+                               : "a round in a checkpoint without one");
       }
-      done_at[r.index] = k;
+      const auto [first, inserted] = done_at.emplace(std::make_pair(r.index, r.round), k);
+      if (!inserted) {
+        bad(at + ".id", json_quoted(r.id) + " is done already (done[" +
+                            std::to_string(first->second) + "]" +
+                            (c.round ? " in round " + std::to_string(r.round) : "") + ")");
+      }
       bool known = false;
       std::string expected;
       for (const char* o : kTargetOutcomes) {

@@ -9,9 +9,11 @@ namespace projtour {
 
 namespace {
 
+// Round by round (all in round 0 without a schedule), each in mission order.
 std::vector<TargetRecord> in_mission_order(std::vector<TargetRecord> records) {
-  std::stable_sort(records.begin(), records.end(),
-                   [](const auto& a, const auto& b) { return a.index < b.index; });
+  std::stable_sort(records.begin(), records.end(), [](const auto& a, const auto& b) {
+    return a.round != b.round ? a.round < b.round : a.index < b.index;
+  });
   return records;
 }
 
@@ -59,10 +61,11 @@ Json build_report(const RunSummary& summary) {
 }
 
 void print_target_table(const RunSummary& summary, std::ostream& out) {
-  const std::vector<std::string> header = {"target",      "outcome",        "loc err m",
-                                           "align ms",    "proj mm before", "proj mm after",
-                                           "observed mm", "reason"};
+  std::vector<std::string> header = {"target",         "outcome",       "loc err m",   "align ms",
+                                     "proj mm before", "proj mm after", "observed mm", "reason"};
   std::vector<std::vector<std::string>> rows;
+  const bool rounds = std::any_of(summary.targets.begin(), summary.targets.end(),
+                                  [](const TargetRecord& r) { return r.round > 0; });
   for (const auto& r : in_mission_order(summary.targets)) {
     const TargetMeasurements& m = r.measurements;
     std::optional<double> loc_m, align_ms, before_mm, after_mm;
@@ -74,7 +77,9 @@ void print_target_table(const RunSummary& summary, std::ostream& out) {
     }
     rows.push_back({r.id, r.outcome, cell(loc_m, 3), cell(align_ms, 1), cell(before_mm, 1),
                     cell(after_mm, 1), cell(m.observed_error_mm, 1), r.reason});
+    if (rounds) rows.back().insert(rows.back().begin(), std::to_string(r.round));
   }
+  if (rounds) header.insert(header.begin(), "round");
   std::vector<std::size_t> width(header.size());
   for (std::size_t c = 0; c < header.size(); ++c) {
     width[c] = header[c].size();

@@ -62,11 +62,17 @@ std::string url_segment(const std::string& s) {
   return out;
 }
 
-// An HTML id/anchor from a target id.
-std::string anchor(const std::string& id) {
+// An HTML id/anchor from a target id and its round (0 without a schedule: one visit each).
+std::string anchor(const std::string& id, long long round = 0) {
   std::string out = "target-";
   for (unsigned char c : id) out += std::isalnum(c) ? static_cast<char>(c) : '_';
+  if (round > 0) out += "-round-" + std::to_string(round);
   return out;
+}
+
+long long round_of(const Json& t) {
+  const Json* v = t.is_object() && t.contains("round") ? &t.at("round") : nullptr;
+  return v != nullptr && v->is_number_integer() ? v->get<long long>() : 0;
 }
 
 const Json* at_path(const Json& j, std::initializer_list<const char*> keys) {
@@ -276,14 +282,17 @@ void target_pictures(std::ostringstream& h, const std::string& id,
   if (!body.empty()) h << "<div class=\"pictures\">\n" << body << "</div>\n";
 }
 
-void overview_table(std::ostringstream& h, const Json& targets) {
+// The rows of `round` (every row when 0, a run without a schedule).
+void overview_table(std::ostringstream& h, const Json& targets, long long round) {
   h << "<table class=\"overview\">\n<tr><th>target</th><th>outcome</th><th>localization error "
        "m</th><th>align ms</th><th>projection error before mm</th><th>projection error after "
        "mm</th><th>observed error mm</th><th>reason</th></tr>\n";
   for (const Json& t : targets) {
+    if (round_of(t) != round) continue;
     const std::string id = text(t, {"id"});
-    h << "<tr><td><a href=\"#" << anchor(id) << "\">" << html_escape(id) << "</a></td><td>"
-      << badge(text(t, {"outcome"})) << "</td><td>"
+    h << "<tr><td><a href=\"#" << anchor(id, round) << "\">" << html_escape(id)
+      << (text(t, {"content"}).empty() ? "" : " (" + html_escape(text(t, {"content"})) + ")")
+      << "</a></td><td>" << badge(text(t, {"outcome"})) << "</td><td>"
       << fixed_or_dash(number(t, {"localization_error", "trans_m"}), 3) << "</td><td>"
       << fixed_or_dash(number(t, {"align", "time_ms"}), 1) << "</td><td>"
       << fixed_or_dash(number(t, {"projection_error_mm", "before_align"}), 1) << "</td><td>"
@@ -365,8 +374,15 @@ std::string render_summary_page(const SummaryInput& input, const std::filesystem
   }
   std::size_t projected = 0;
   for (const Json& t : targets) projected += text(t, {"outcome"}) == "projected" ? 1 : 0;
-  h << "<tr><th>targets projected</th><td>" << projected << " of " << targets.size()
-    << "</td></tr>\n";
+  long long last_round = 0;
+  for (const Json& t : targets) last_round = std::max(last_round, round_of(t));
+  if (last_round > 0) {
+    h << "<tr><th>visits projected</th><td>" << projected << " of " << targets.size() << " in "
+      << last_round << (last_round == 1 ? " round" : " rounds") << "</td></tr>\n";
+  } else {
+    h << "<tr><th>targets projected</th><td>" << projected << " of " << targets.size()
+      << "</td></tr>\n";
+  }
   if (const std::string line = projection_error_line(targets); !line.empty()) {
     h << "<tr><th>projection error after alignment</th><td>" << line << "</td></tr>\n";
   }
@@ -376,13 +392,30 @@ std::string render_summary_page(const SummaryInput& input, const std::filesystem
     h << "<h2>Tour</h2>\n<div class=\"tour\"><a href=\"tour.png\">"
       << img_tag("tour.png", "the tour on the map") << "</a></div>\n";
   }
-  if (!targets.empty()) {
-    h << "<h2>Targets</h2>\n";
-    overview_table(h, targets);
+  // A schedule's rounds, in the report's order (round by round); {0} without one.
+  std::vector<long long> rounds;
+  for (const Json& t : targets) {
+    if (rounds.empty() || rounds.back() != round_of(t)) rounds.push_back(round_of(t));
+  }
+  if (!targets.empty()) h << "<h2>Targets</h2>\n";
+  for (long long round : rounds) {
+    if (round > 0) {
+      std::size_t visits = 0, shown = 0;
+      for (const Json& t : targets) {
+        if (round_of(t) != round) continue;
+        ++visits;
+        shown += text(t, {"outcome"}) == "projected" ? 1 : 0;
+      }
+      h << "<h3 id=\"round-" << round << "\">Round " << round << ": " << shown << " of " << visits
+        << " projected</h3>\n";
+    }
+    overview_table(h, targets, round);
   }
   for (const Json& t : targets) {
     const std::string id = text(t, {"id"});
-    h << "<section id=\"" << anchor(id) << "\">\n<h2>" << html_escape(id) << " "
+    const long long round = round_of(t);
+    h << "<section id=\"" << anchor(id, round) << "\">\n<h2>" << html_escape(id)
+      << (round > 0 ? " (round " + std::to_string(round) + ")" : "") << " "
       << badge(text(t, {"outcome"})) << "</h2>\n";
     target_figures(h, t);
     target_pictures(h, id, run_dir);

@@ -136,6 +136,11 @@ void to_json(Json& j, const TargetRecord& r) {
   j["outcome"] = r.outcome;
   if (!r.reason.empty()) j["reason"] = r.reason;
   j["retries"] = r.retries;
+  if (r.round > 0) j["round"] = r.round;
+  if (!r.content.empty()) {
+    j["content"] = r.content;
+    j["content_index"] = r.content_index;
+  }
   const TargetMeasurements& m = r.measurements;
   if (m.projected_s) j["projected_s"] = *m.projected_s;
   if (m.beam_interruptions) j["beam_interruptions"] = *m.beam_interruptions;
@@ -154,15 +159,35 @@ void to_json(Json& j, const TargetRecord& r) {
 
 void from_json(const Json& j, TargetRecord& r) {
   expect_object(j, "a target record");
-  reject_unknown(
-      j, {"id", "outcome", "reason", "retries", "projected_s", "beam_interruptions", "blanked_s",
-          "align", "localization_error", "target_pose_error", "projection_error_mm",
-          "projection_error_px", "observed_error_mm", "observed_light_on_target",
-          "projection_error_area_mm", "light_off_target_fraction", "calibration"});
+  reject_unknown(j, {"id",
+                     "outcome",
+                     "reason",
+                     "retries",
+                     "round",
+                     "content",
+                     "content_index",
+                     "projected_s",
+                     "beam_interruptions",
+                     "blanked_s",
+                     "align",
+                     "localization_error",
+                     "target_pose_error",
+                     "projection_error_mm",
+                     "projection_error_px",
+                     "observed_error_mm",
+                     "observed_light_on_target",
+                     "projection_error_area_mm",
+                     "light_off_target_fraction",
+                     "calibration"});
   r.id = string_at(j, "id");
   r.outcome = string_at(j, "outcome");
   r.reason = j.contains("reason") ? string_at(j, "reason") : std::string();
   r.retries = int_at(j, "retries");
+  r.round = j.contains("round") ? int_at(j, "round") : 0;
+  if (j.contains("content")) {
+    r.content = string_at(j, "content");
+    r.content_index = int_at(j, "content_index");
+  }
   TargetMeasurements m;
   read_optional_number(j, "projected_s", m.projected_s);
   if (j.contains("beam_interruptions")) m.beam_interruptions = int_at(j, "beam_interruptions");

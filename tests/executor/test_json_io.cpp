@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <sstream>
 #include <string>
 
 #include "projtour/mission.hpp"
@@ -453,12 +454,14 @@ TEST_F(CheckpointFile, UnknownOutcomeIsRefused) {
                                        done_entry("rabbit", R"("outcome": "x", "retries": 0)"))),
       file +
           ": done[1].outcome: expected one of \"projected\", \"skipped\", \"failed\", "
+          "\"outside_hours\", "
           "got \"x\"");
   // Control characters are escaped, not echoed raw to the terminal.
   EXPECT_EQ(error(checkpoint_text("1.0", done_entry("rabbit", R"("outcome": "\u001b[2J", )"
                                                               R"("retries": 0)"))),
             file +
                 ": done[0].outcome: expected one of \"projected\", \"skipped\", \"failed\", "
+                "\"outside_hours\", "
                 "got \"\\u001b[2J\"");
 }
 
@@ -497,6 +500,41 @@ TEST(ReportJson, NotesAreWrittenAfterTheReasonsWhenAny) {
             R"(visited again: its pose on the map moved 24.000 m since the checkpoint"], )"
             R"("timing": {"wall_s": 1.5, "mission_s": 20.0}, "targets": [{"id": "rabbit", )"
             R"("outcome": "projected", "retries": 0}]})");
+}
+
+// A schedule's records: round by round, each round in mission order, with the round and the
+// content item written; the table gains a round column.
+TEST(ReportJson, RoundsInOrderWithTheirContent) {
+  RunSummary summary;
+  summary.mission = "m";
+  auto record = [](std::size_t index, const std::string& id, int round) {
+    TargetRecord r;
+    r.index = index;
+    r.id = id;
+    r.outcome = "projected";
+    r.round = round;
+    return r;
+  };
+  // Visited out of mission order (nearest first), and a retried one recorded late.
+  summary.targets = {record(1, "pillar", 1), record(0, "rabbit", 1), record(0, "rabbit", 2),
+                     record(1, "pillar", 2)};
+  summary.targets[2].content = "lunch.avi";
+  summary.targets[2].content_index = 1;
+  const Json targets = build_report(summary)["targets"];
+  EXPECT_EQ(dump_json(targets),
+            R"([{"id": "rabbit", "outcome": "projected", "retries": 0, "round": 1}, )"
+            R"({"id": "pillar", "outcome": "projected", "retries": 0, "round": 1}, )"
+            R"({"id": "rabbit", "outcome": "projected", "retries": 0, "round": 2, )"
+            R"("content": "lunch.avi", "content_index": 1}, )"
+            R"({"id": "pillar", "outcome": "projected", "retries": 0, "round": 2}])");
+  TargetRecord back = targets[2].get<TargetRecord>();
+  EXPECT_EQ(back.round, 2);
+  EXPECT_EQ(back.content, "lunch.avi");
+  EXPECT_EQ(back.content_index, 1);
+  std::ostringstream table;
+  print_target_table(summary, table);
+  EXPECT_EQ(table.str().rfind("round  target  outcome", 0), 0u) << table.str();
+  EXPECT_NE(table.str().find("\n2      rabbit  projected"), std::string::npos) << table.str();
 }
 
 TEST(SummaryInput, MalformedReportNamesTheFileAndByte) {

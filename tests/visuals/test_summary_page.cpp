@@ -154,6 +154,47 @@ TEST_F(SummaryPageTest, SparseReportStillRenders) {
   EXPECT_FALSE(contains(html, "<img"));
 }
 
+// A schedule's report: a table per round in the report's order, one section per visit with
+// its own anchor, the content item shown and the targets passed over with their reason.
+TEST_F(SummaryPageTest, GroupsAScheduledRunByRound) {
+  Json report = Json::object();
+  report["mission"] = "all-day";
+  report["outcome"] = "completed";
+  Json targets = Json::array();
+  auto visit = [&](int round, const std::string& id, const std::string& outcome,
+                   const std::string& content) {
+    Json t = Json::object();
+    t["id"] = id;
+    t["outcome"] = outcome;
+    t["retries"] = 0;
+    t["round"] = round;
+    if (outcome != "projected") t["reason"] = "outside its hours (11:30-14:00) at 09:01:10";
+    if (!content.empty()) {
+      t["content"] = content;
+      t["content_index"] = 0;
+    }
+    targets.push_back(t);
+  };
+  visit(1, "sign", "projected", "");
+  visit(1, "cafe", "outside_hours", "");
+  visit(2, "sign", "projected", "");
+  visit(2, "cafe", "projected", "lunch.avi");
+  report["targets"] = targets;
+  const std::string html = render_summary_page(SummaryInput{report}, run_dir_);
+  const auto round1 = html.find("<h3 id=\"round-1\">Round 1: 1 of 2 projected</h3>");
+  const auto round2 = html.find("<h3 id=\"round-2\">Round 2: 2 of 2 projected</h3>");
+  ASSERT_NE(round1, std::string::npos) << html;
+  ASSERT_NE(round2, std::string::npos);
+  EXPECT_LT(round1, round2);
+  EXPECT_TRUE(contains(html, "3 of 4 in 2 rounds"));
+  EXPECT_TRUE(contains(html, "outside its hours (11:30-14:00) at 09:01:10"));
+  EXPECT_TRUE(contains(html, "href=\"#target-cafe-round-2\">cafe (lunch.avi)</a>"));
+  for (const char* section : {"target-sign-round-1", "target-cafe-round-1", "target-sign-round-2",
+                              "target-cafe-round-2"}) {
+    EXPECT_TRUE(contains(html, std::string("<section id=\"") + section + "\">")) << section;
+  }
+}
+
 // --- in a real browser -----------------------------------------------------------------------
 
 std::string chromium_command() {

@@ -55,6 +55,9 @@ struct Checkpoint {
   // ("done_against"), so both always have the same size.
   std::vector<TargetIdentity> done_against;
   std::optional<std::string> current_target;  // the visit an interruption cut short
+  // The schedule's round the run was in (written only for a mission with a schedule); done
+  // records of earlier rounds are history, those of this round are not visited again.
+  std::optional<int> round;
 };
 
 // Throws std::logic_error when done and done_against differ in size.

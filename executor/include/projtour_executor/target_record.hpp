@@ -63,15 +63,23 @@ struct TargetMeasurements {
   std::optional<double> light_off_target_fraction;
 };
 
-// The outcomes the executor gives a visit (Executor's end_visit and close_visit).
-inline constexpr const char* kTargetOutcomes[] = {"projected", "skipped", "failed"};
+// The outcomes the executor gives a visit (Executor's end_visit and close_visit), and a target
+// passed over in a round because the time of day was outside its hours.
+inline constexpr const char* kTargetOutcomes[] = {"projected", "skipped", "failed",
+                                                  "outside_hours"};
 
 struct TargetRecord {
   std::size_t index = 0;  // in the mission; not written, the id is
   std::string id;
-  std::string outcome;  // projected | skipped | failed
+  std::string outcome;  // projected | skipped | failed | outside_hours
   std::string reason;   // empty when projected
   int retries = 0;
+  // The schedule's round (1, 2, ...); 0, and not written, without a schedule.
+  int round = 0;
+  // The item of a content list this visit showed (its file name and place in the list); empty,
+  // and not written, for a target with one content.
+  std::string content;
+  int content_index = 0;
   TargetMeasurements measurements;
 };
 
