@@ -14,6 +14,8 @@ const char* to_string(EventType type) {
       return "outcome";
     case EventType::transition:
       return "transition";
+    case EventType::round:
+      return "round";
   }
   return "?";
 }
@@ -24,7 +26,8 @@ void to_json(Json& j, const ExecutorEvent& event) {
   j["event"] = to_string(event.type);
   j["state"] = event.state;
   j["target"] = event.target ? Json(*event.target) : Json();
-  const bool outcome = event.type == EventType::outcome;
+  if (event.round > 0) j["round"] = event.round;
+  const bool outcome = event.type == EventType::outcome || event.type == EventType::round;
   const bool transition = event.type == EventType::transition;
   if (outcome || transition) j["outcome"] = event.outcome;
   if (outcome && !event.message.empty()) j["message"] = event.message;

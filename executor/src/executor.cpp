@@ -1,6 +1,9 @@
 #include "projtour_executor/executor.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <limits>
 #include <stdexcept>
@@ -15,6 +18,20 @@ namespace projtour {
 
 namespace {
 constexpr std::size_t kMaxTransitionsPerTick = 1000;
+
+// "HH:MM:SS" (or "HH:MM") of seconds after midnight, wrapped to the day.
+std::string clock_text(double day_s, bool seconds = true) {
+  // 24:00 stays 24:00 (a window's end); later times wrap to the next day.
+  long total = static_cast<long>(std::floor(day_s));
+  if (total > 86400) total %= 86400;
+  char buf[64];
+  if (seconds) {
+    std::snprintf(buf, sizeof buf, "%02ld:%02ld:%02ld", total / 3600, total / 60 % 60, total % 60);
+  } else {
+    std::snprintf(buf, sizeof buf, "%02ld:%02ld", total / 3600, total / 60 % 60);
+  }
+  return buf;
+}
 }  // namespace
 
 const char* to_string(TourOutcome outcome) {
@@ -46,6 +63,15 @@ int exit_code(TourOutcome outcome) {
       return 1;
   }
   return 1;
+}
+
+double time_of_day_at_zero_s(const MissionSchedule& schedule, bool dry_run, double mission_now_s) {
+  if (dry_run) return schedule.start_s;
+  const std::time_t now = std::time(nullptr);
+  std::tm local{};
+  localtime_r(&now, &local);
+  const double day_s = local.tm_hour * 3600.0 + local.tm_min * 60.0 + local.tm_sec;
+  return day_s - mission_now_s;
 }
 
 BehaviourInstances create_behaviours(const Machine& machine, const BehaviourCatalog& catalog,
@@ -94,9 +120,12 @@ std::string Executor::active_state() const {
   return active_.back()->path;
 }
 
-void Executor::restore(std::vector<TargetRecord> done, std::optional<std::size_t> first_target) {
+void Executor::restore(std::vector<TargetRecord> done, std::optional<std::size_t> first_target,
+                       int round) {
+  round_ = std::max(1, round);
   for (auto& r : done) {
-    done_.insert(r.index);
+    // A record of an unscheduled run (round 0) belongs to the first round.
+    if (std::max(1, r.round) == round_) done_.insert(r.index);
     records_.push_back(std::move(r));
   }
   first_target_ = first_target;
@@ -106,7 +135,7 @@ Context Executor::make_context(const StateSpec* leaf) const {
   Context ctx;
   ctx.run = &run_;
   if (current_target_) {
-    ctx.target = &run_.mission->targets[*current_target_];
+    ctx.target = visit_target_ ? &*visit_target_ : &run_.mission->targets[*current_target_];
     ctx.target_index = *current_target_;
     if (!run_.run_dir.empty()) ctx.target_dir = run_.run_dir / "targets" / ctx.target->id;
   }
@@ -131,7 +160,12 @@ void Executor::emit(EventType type, const StateSpec& state, const std::string& o
   e.outcome = outcome;
   e.message = message;
   e.to = to;
-  for (ExecutorObserver* o : observers_) o->on_event(e);
+  publish(e);
+}
+
+void Executor::publish(ExecutorEvent& event) {
+  if (options_.schedule.written) event.round = round_;
+  for (ExecutorObserver* o : observers_) o->on_event(event);
 }
 
 bool Executor::start_services() {
@@ -318,6 +352,21 @@ void Executor::open_visit(const StateSpec& for_each, std::size_t index) {
   record_ = TargetRecord{};
   record_.index = index;
   record_.id = run_.mission->targets[index].id;
+  record_.round = options_.schedule.written ? round_ : 0;
+  visit_target_.reset();
+  if (index < options_.target_times.size() && options_.target_times[index].content.size() > 1) {
+    // Counted from the records, so a resumed run goes on with the item it would have shown.
+    const TargetTimes& times = options_.target_times[index];
+    const auto shown = std::count_if(records_.begin(), records_.end(), [&](const TargetRecord& r) {
+      return r.index == index && r.outcome != "outside_hours";
+    });
+    const std::size_t k =
+        static_cast<std::size_t>(times.per_round ? round_ - 1 : shown) % times.content.size();
+    visit_target_ = run_.mission->targets[index];
+    visit_target_->content = times.content[k];
+    record_.content = times.content[k].filename().string();
+    record_.content_index = static_cast<int>(k);
+  }
   if (!run_.run_dir.empty()) {
     try {
       make_run_directory(run_.run_dir / "targets" / record_.id);
@@ -330,13 +379,135 @@ void Executor::open_visit(const StateSpec& for_each, std::size_t index) {
 }
 
 void Executor::begin_visit(const StateSpec& for_each) {
-  const auto next = choose_next_target(for_each);
-  if (!next) {
+  if (options_.schedule.written && !round_open_) {
+    round_open_ = true;
+    emit_round(for_each, "begin", "at " + clock_text(time_of_day_s(clock_.now_s())));
+  }
+  // Each pass records a target as done this round, so the loop ends within target_count().
+  for (;;) {
+    const auto next = choose_next_target(for_each);
+    if (!next) {
+      end_round(for_each);
+      return;
+    }
+    if (const std::string why = outside_hours(*next); !why.empty()) {
+      pass_over(for_each, *next, why);
+      continue;
+    }
+    open_visit(for_each, *next);
+    request_enter(*for_each.child(for_each.initial));
+    return;
+  }
+}
+
+std::string Executor::outside_hours(std::size_t index) const {
+  if (index >= options_.target_times.size()) return "";
+  const auto& hours = options_.target_times[index].hours;
+  if (hours.empty()) return "";
+  const double now = std::fmod(time_of_day_s(clock_.now_s()), 86400.0);
+  std::string windows;
+  for (const TimeWindow& w : hours) {
+    if (now >= w.begin_s && now < w.end_s) return "";
+    windows += (windows.empty() ? "" : ", ") + clock_text(w.begin_s, false) + "-" +
+               clock_text(w.end_s, false);
+  }
+  return "outside its hours (" + windows + ") at " + clock_text(now);
+}
+
+void Executor::pass_over(const StateSpec& for_each, std::size_t index, const std::string& reason) {
+  TargetRecord r;
+  r.index = index;
+  r.id = run_.mission->targets[index].id;
+  r.outcome = "outside_hours";
+  r.reason = reason;
+  r.round = options_.schedule.written ? round_ : 0;
+  records_.push_back(std::move(r));
+  done_.insert(index);
+  ExecutorEvent e;
+  e.t_s = clock_.now_s();
+  e.type = EventType::outcome;
+  e.state = for_each.path;
+  e.target = records_.back().id;
+  e.outcome = "outside_hours";
+  e.message = reason;
+  publish(e);
+  for (ExecutorObserver* o : observers_) o->on_target_done(records_.back());
+}
+
+void Executor::emit_round(const StateSpec& for_each, const std::string& outcome,
+                          const std::string& message) {
+  ExecutorEvent e;
+  e.t_s = clock_.now_s();
+  e.type = EventType::round;
+  e.state = for_each.path;
+  e.outcome = outcome;
+  e.message = message;
+  publish(e);
+}
+
+// The robot stays where the round left it for pause_s, or until a target's window opens when
+// the round found every one closed (a pause of 0 would otherwise spin round after round).
+void Executor::end_round(const StateSpec& for_each) {
+  const MissionSchedule& schedule = options_.schedule;
+  if (!schedule.written) {
     composite_done(for_each);
     return;
   }
-  open_visit(for_each, *next);
-  request_enter(*for_each.child(for_each.initial));
+  const double now_s = clock_.now_s();
+  std::map<std::string, int> counts;
+  bool visited = false;
+  for (const TargetRecord& r : records_) {
+    if (r.round != round_) continue;
+    ++counts[r.outcome];
+    visited |= r.outcome != "outside_hours";
+  }
+  std::string tally;
+  for (const auto& [outcome, n] : counts) {
+    tally += (tally.empty() ? "" : ", ") + std::to_string(n) + " " + outcome;
+  }
+  double next_s = now_s + schedule.pause_s;
+  std::string last;
+  if (!visited) {
+    // The earliest window opening after now, today.
+    const double day_s = std::fmod(time_of_day_s(now_s), 86400.0);
+    std::optional<double> opens_s;
+    for (const TargetTimes& t : options_.target_times) {
+      for (const TimeWindow& w : t.hours) {
+        if (w.begin_s > day_s && (!opens_s || w.begin_s < *opens_s)) opens_s = w.begin_s;
+      }
+    }
+    if (opens_s) {
+      next_s = std::max(next_s, now_s + (*opens_s - day_s));
+    } else {
+      last = "no target's hours open again today";
+    }
+  }
+  if (last.empty() && schedule.rounds && round_ >= *schedule.rounds) {
+    last = "the last of " + std::to_string(*schedule.rounds) + " rounds";
+  } else if (last.empty() && schedule.until_s && time_of_day_s(next_s) >= *schedule.until_s) {
+    last = "the next would begin at " + clock_text(time_of_day_s(next_s)) + ", not before " +
+           clock_text(*schedule.until_s, false);
+  }
+  emit_round(for_each, "end",
+             "at " + clock_text(time_of_day_s(now_s)) + ": " + (tally.empty() ? "nothing" : tally) +
+                 "; " +
+                 (last.empty() ? "the next begins at " + clock_text(time_of_day_s(next_s)) : last));
+  round_open_ = false;
+  if (!last.empty()) {
+    composite_done(for_each);
+    return;
+  }
+  waiting_for_each_ = &for_each;
+  next_round_s_ = next_s;
+}
+
+void Executor::begin_round() {
+  const StateSpec* for_each = waiting_for_each_;
+  waiting_for_each_ = nullptr;
+  ++round_;
+  done_.clear();
+  deferred_.clear();
+  begin_visit(*for_each);
 }
 
 // Stops the active leaf and pops it; measurements of the visit are taken here.
@@ -428,8 +599,10 @@ void Executor::complete_composite(const StateSpec& composite) {
 void Executor::composite_done(const StateSpec& composite) {
   emit(EventType::outcome, composite, kOutcomeDone);
   if (composite.parent == nullptr) {
-    const bool all_projected = std::all_of(records_.begin(), records_.end(),
-                                           [](const auto& r) { return r.outcome == "projected"; });
+    // A target passed over for its hours is the schedule at work, not a skip.
+    const bool all_projected = std::all_of(records_.begin(), records_.end(), [](const auto& r) {
+      return r.outcome == "projected" || r.outcome == "outside_hours";
+    });
     finish_tour(all_projected ? TourOutcome::completed : TourOutcome::completed_with_skips);
     return;
   }
@@ -570,6 +743,16 @@ bool Executor::step() {
     cancel_.request();
     leave_leaf(Outcome{kOutcomeCancelled, "cancelled while paused"});
     interrupt();
+    return !finished_;
+  }
+  if (waiting_for_each_ != nullptr && leaf_behaviour_ == nullptr) {
+    // Between rounds nothing is active: a cancel ends the tour at once.
+    if (cancel_requested_) {
+      interrupt();
+    } else if (now_s >= next_round_s_ - 1e-9) {
+      begin_round();
+      process_requests();
+    }
     return !finished_;
   }
   if (paused_ || leaf_behaviour_ == nullptr) return !finished_;

@@ -9,6 +9,15 @@ ProgressDisplay::ProgressDisplay(std::ostream& out, bool terminal, std::size_t t
     : out_(out), terminal_(terminal), target_count_(target_count), done_(already_done) {}
 
 void ProgressDisplay::on_event(const ExecutorEvent& event) {
+  if (event.type == EventType::round) {
+    // Counts are per round: "target i/N" stays within the tour's N.
+    if (event.outcome == "end") done_ = 0;
+    if (terminal_ && line_open_) out_ << "\r\033[K";
+    line_open_ = false;
+    out_ << "round " << event.round << " " << event.outcome << "s " << event.message << "\n";
+    out_.flush();
+    return;
+  }
   if (event.type != EventType::enter) return;
   const std::string target = event.target.value_or("");
   if (!terminal_ && !target.empty() && target != target_) {

@@ -360,18 +360,26 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   ExecutorOptions executor_options;
   executor_options.tick_s = 1.0 / options.tick_hz;
   executor_options.cancel_grace_s = options.cancel_grace_s;
+  executor_options.schedule = prepared->mission.schedule;
+  executor_options.target_times = prepared->mission.target_times;
+  executor_options.time_of_day_at_zero_s =
+      time_of_day_at_zero_s(prepared->mission.schedule, options.dry_run, clock.now_s());
   Executor executor(*prepared->machine, std::move(behaviours), std::move(services), run, clock,
                     executor_options);
   std::size_t already_done = 0;
   if (checkpoint) {
-    already_done = checkpoint->done.size();
+    // The progress counts the round being resumed.
+    already_done = static_cast<std::size_t>(
+        std::count_if(checkpoint->done.begin(), checkpoint->done.end(), [&](const TargetRecord& r) {
+          return std::max(r.round, 1) == checkpoint->round.value_or(1);
+        }));
     std::optional<std::size_t> first;
     for (std::size_t i = 0; i < mission.targets.size(); ++i) {
       if (checkpoint->current_target && mission.targets[i].id == *checkpoint->current_target) {
         first = i;
       }
     }
-    executor.restore(checkpoint->done, first);
+    executor.restore(checkpoint->done, first, checkpoint->round.value_or(1));
   }
 
   std::optional<JsonlEventWriter> opened_events;
@@ -385,12 +393,17 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   JsonlEventWriter& events = *opened_events;
   const bool terminal = &out == &std::cout && ::isatty(STDOUT_FILENO) != 0;
   ProgressDisplay progress(out, terminal, mission.targets.size(), already_done);
+  // `round` 0: the latest of the records' (the watchdog's thread may not ask the executor).
   auto write_checkpoint_of = [&](double mission_s, const std::vector<TargetRecord>& done,
-                                 std::optional<std::size_t> interrupted_target) {
+                                 std::optional<std::size_t> interrupted_target, int round) {
     Checkpoint c;
     c.mission = mission.name;
     c.seed = seed;
     c.mission_s = mission_s;
+    if (prepared->mission.schedule.written) {
+      for (const auto& r : done) round = std::max(round, r.round);
+      c.round = std::max(round, 1);
+    }
     c.done = done;
     for (const auto& r : done) c.done_against.push_back(identities[r.index]);
     if (interrupted_target) c.current_target = mission.targets[*interrupted_target].id;
@@ -410,7 +423,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     const bool interrupted = executor.finished() && executor.outcome() == TourOutcome::interrupted;
     try {
       write_checkpoint_of(clock.now_s(), executor.records(),
-                          interrupted ? executor.current_target() : std::nullopt);
+                          interrupted ? executor.current_target() : std::nullopt, executor.round());
     } catch (const std::exception& e) {
       if (write_failure.empty()) write_failure = e.what();
     }
@@ -491,7 +504,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     }
     files_final = true;
     try {
-      write_checkpoint_of(last.mission_s, *last.records, std::nullopt);
+      write_checkpoint_of(last.mission_s, *last.records, std::nullopt, 0);
       write_file_atomically(run_dir / "report.json", dump_json(build_report(summary), 2) + "\n");
     } catch (const std::exception& e) {
       err << "projtour: " << e.what() << "\n";

@@ -10,7 +10,9 @@
 
 namespace projtour {
 
-enum class EventType { enter, exit, outcome, transition };
+// round: a round of a schedule begins or ends (outcome "begin" | "end", message when and how it
+// went).
+enum class EventType { enter, exit, outcome, transition, round };
 const char* to_string(EventType type);
 
 struct ExecutorEvent {
@@ -21,6 +23,8 @@ struct ExecutorEvent {
   std::string outcome;  // outcome and transition events
   std::string message;  // outcome events: why
   std::string to;       // transition events: a state path or skip_target/finish/abort
+  // The schedule's round the event happened in (1, 2, ...); 0, and not written, without one.
+  int round = 0;
 };
 
 // The events.jsonl line is dump_json of this.

@@ -14,6 +14,7 @@
 #include "projtour/behaviour.hpp"
 #include "projtour/clock.hpp"
 #include "projtour/context.hpp"
+#include "projtour/mission_loader.hpp"
 #include "projtour/path_planner.hpp"
 #include "projtour_executor/catalog.hpp"
 #include "projtour_executor/events.hpp"
@@ -30,6 +31,12 @@ struct ExecutorOptions {
   double tick_s = 0.05;  // 20 Hz
   // Mission time a cancelled behaviour gets to return before it is stopped by force.
   double cancel_grace_s = 2.0;
+  // All day (README "All day"): the mission's schedule and each target's hours and content list,
+  // by target index (empty: none has either). The defaults are one unnumbered pass.
+  MissionSchedule schedule;
+  std::vector<TargetTimes> target_times;
+  // Seconds after local midnight at mission time 0; hours and until are read against it.
+  double time_of_day_at_zero_s = 0.0;
 };
 
 struct ServiceInstance {
@@ -37,6 +44,11 @@ struct ServiceInstance {
   std::shared_ptr<Service> service;
   Params params;
 };
+
+// ExecutorOptions::time_of_day_at_zero_s for a run whose clock reads `mission_now_s` now: in a
+// dry run the schedule's start (mission time 0 at start, so a resume goes on from the time of
+// day it stopped at), on the robot the wall clock's local time of day.
+double time_of_day_at_zero_s(const MissionSchedule& schedule, bool dry_run, double mission_now_s);
 
 using BehaviourInstances = std::map<std::string, std::shared_ptr<Behaviour>>;  // by leaf path
 
@@ -55,9 +67,10 @@ class Executor {
 
   void add_observer(ExecutorObserver* observer) { observers_.push_back(observer); }
 
-  // Before start: targets already done (never revisited) and the target to visit first (an
-  // interrupted one), from a checkpoint.
-  void restore(std::vector<TargetRecord> done, std::optional<std::size_t> first_target);
+  // Before start: targets already done (never revisited in `round`, the schedule's round the
+  // checkpoint was in) and the target to visit first (an interrupted one), from a checkpoint.
+  void restore(std::vector<TargetRecord> done, std::optional<std::size_t> first_target,
+               int round = 1);
   // Starts the services and enters the root state (step() does this when not yet started).
   void start();
   // Enters the machine directly at `state_path` (its ancestors entered first), visiting target
@@ -90,6 +103,10 @@ class Executor {
   std::size_t transition_count() const { return transition_count_; }
   std::size_t target_count() const;
   std::size_t done_count() const { return done_.size(); }
+  // The schedule's round being visited (or waited for), from 1.
+  int round() const { return round_; }
+  // Local time of day of mission time `t_s`, seconds after midnight (may pass 86400).
+  double time_of_day_s(double t_s) const { return options_.time_of_day_at_zero_s + t_s; }
 
  private:
   bool start_services();
@@ -108,6 +125,16 @@ class Executor {
   // Starts the visit of target `index`: per-target state reset, its directory, the enter event.
   void open_visit(const StateSpec& for_each, std::size_t index);
   void begin_visit(const StateSpec& for_each);
+  // All day: why target `index` is passed over now ("" when it is within its hours), its record
+  // and event; the end of a round (the next after the pause, or the visit loop's end).
+  std::string outside_hours(std::size_t index) const;
+  void pass_over(const StateSpec& for_each, std::size_t index, const std::string& reason);
+  void end_round(const StateSpec& for_each);
+  void begin_round();
+  void emit_round(const StateSpec& for_each, const std::string& outcome,
+                  const std::string& message);
+  // Stamps the round and hands the event to every observer.
+  void publish(ExecutorEvent& event);
   std::optional<std::size_t> choose_next_target(const StateSpec& for_each);
   std::size_t nearest_target(const PoseEstimate2D& estimate,
                              const std::vector<std::size_t>& remaining);
@@ -162,8 +189,13 @@ class Executor {
   std::vector<std::string> ignored_cancel_;
   std::size_t transition_count_ = 0;
   std::deque<Request> requests_;
-  std::uint64_t leaf_entry_writes_ = 0;   // blackboard writes before the leaf started
-  std::unique_ptr<PathPlanner> planner_;  // order: nearest, on the run's map
+  int round_ = 1;
+  bool round_open_ = false;                      // its begin event was written
+  const StateSpec* waiting_for_each_ = nullptr;  // between rounds: the visit loop to go on with
+  double next_round_s_ = 0.0;
+  std::optional<TargetSpec> visit_target_;  // the target as this visit shows it (content rotated)
+  std::uint64_t leaf_entry_writes_ = 0;     // blackboard writes before the leaf started
+  std::unique_ptr<PathPlanner> planner_;    // order: nearest, on the run's map
   double start_s_ = 0.0;
   long long ticks_ = 0;
 };

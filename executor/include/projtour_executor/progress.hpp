@@ -1,6 +1,6 @@
 #pragma once
 // The run's progress on stdout: one updating line on a terminal (target i/N, state, mission
-// time), plain lines per target otherwise.
+// time), plain lines per target otherwise; a line per round of a schedule, and counts per round.
 #include <ostream>
 #include <string>
 
