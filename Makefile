@@ -29,13 +29,20 @@ build: configure
 run: build
 	$(BUILD_DIR)/projtour run missions/demo_tour.yaml --dry-run --world $(WORLD_FILE) --seed $(SEED) --out $(RUN_DIR)
 
+# The monitor's browser tests drive Chromium with puppeteer-core, from the npm registry:
+# installed from tests/monitor/package-lock.json when node_modules is missing or older.
+MONITOR_NODE_MODULES = tests/monitor/node_modules/.package-lock.json
+$(MONITOR_NODE_MODULES): tests/monitor/package-lock.json
+	@if command -v npm >/dev/null; then npm ci --prefix tests/monitor --no-audit --no-fund; \
+	else echo "no npm: the monitor's browser tests will be skipped"; fi
+
 # The fast suite first, so its failures show within minutes; then the `slow` label (the minute
 # of fuzzing, the interruption test).
-test: build
+test: build $(MONITOR_NODE_MODULES)
 	cd $(BUILD_DIR) && ctest -LE slow --output-on-failure -j $(JOBS) --timeout 900
 	cd $(BUILD_DIR) && ctest -L slow --output-on-failure -j $(JOBS) --timeout 900
 
-test-asan: deps
+test-asan: deps $(MONITOR_NODE_MODULES)
 	cmake -S . -B $(ASAN_BUILD_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPROJTOUR_SANITIZE=ON $(CMAKE_FLAGS)
 	cmake --build $(ASAN_BUILD_DIR) -j $(JOBS)
 	cd $(ASAN_BUILD_DIR) && ASAN_OPTIONS=detect_leaks=0 ctest --output-on-failure -j $(JOBS) --timeout 1800
