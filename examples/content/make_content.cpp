@@ -1,6 +1,7 @@
 // Generates the demo content images (run once; the PNGs are committed):
 //   g++ -std=c++17 make_content.cpp $(pkg-config --cflags --libs opencv4) -o /tmp/make_content
-//   /tmp/make_content .        # writes ./sale.png, ./sign.png, ./pillar.png
+//   /tmp/make_content .        # writes ./sale.png, ./sign.png, ./pillar.png, ./lunch.png and
+//                              # ./lunch.avi (missions/all_day.yaml's rotating lunch content)
 // sale.png is bit-for-bit the image make_sale.cpp made, which this program replaces.
 // Every poster carries the same corner marks (TL red, TR green, BR blue, BL white) so the corner
 // order is visible in projector.png and in the dry run's before/after views.
@@ -10,6 +11,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 namespace {
 
@@ -105,7 +107,36 @@ std::vector<Poster> posters() {
         {"COLLECTION", duplex, 1.7, 3, 900, white},
         {"level 1", duplex, 1.6, 2, 1120, yellow}},
        50},
+      // 800 x 500 landscape, orange: the lunch-time menu (missions/all_day.yaml).
+      {"lunch.png",
+       {800, 500},
+       {20, 120, 240},
+       {40, 60, 160},
+       {{cv::Rect(0, 330, 800, 90), cv::Scalar(40, 120, 40)}},
+       {{"TODAY'S LUNCH", duplex, 1.8, 3, 130, white},
+        {"MENU", triplex, 4.6, 11, 290, yellow},
+        {"11:30 - 14:00  cafe, level 0", duplex, 1.2, 2, 390, white}},
+       40},
   };
+}
+
+// A 4 s loop of the lunch poster at half size with a band sweeping across it: small enough to
+// commit (MJPG), moving enough to see the video path work.
+bool write_lunch_clip(const std::filesystem::path& file, const cv::Mat& poster) {
+  cv::Mat half;
+  cv::resize(poster, half, cv::Size(poster.cols / 2, poster.rows / 2), 0, 0, cv::INTER_AREA);
+  cv::VideoWriter writer(file.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 2.5,
+                         half.size());
+  if (!writer.isOpened()) return false;
+  writer.set(cv::VIDEOWRITER_PROP_QUALITY, 60);
+  for (int i = 0; i < 10; ++i) {
+    cv::Mat frame = half.clone();
+    const int x = i * half.cols / 10;
+    cv::rectangle(frame, cv::Rect(x, half.rows - 40, half.cols / 10, 20), cv::Scalar(0, 240, 255),
+                  -1);
+    writer.write(frame);
+  }
+  return true;
 }
 
 }  // namespace
@@ -113,7 +144,9 @@ std::vector<Poster> posters() {
 int main(int argc, char** argv) {
   const std::filesystem::path dir = argc > 1 ? argv[1] : ".";
   for (const Poster& p : posters()) {
-    if (!cv::imwrite((dir / p.file).string(), draw(p))) return 1;
+    const cv::Mat image = draw(p);
+    if (!cv::imwrite((dir / p.file).string(), image)) return 1;
+    if (p.file == "lunch.png" && !write_lunch_clip(dir / "lunch.avi", image)) return 1;
   }
   return 0;
 }
