@@ -258,7 +258,7 @@ async function controls(page, state, api, token) {
 
   // The end: the run exits 3 (finished with a skip), the report agrees, and the page heard the
   // stream say so before the server went.
-  const { code } = await until("the end of the run", () => exitStatus, 240000, 250);
+  const { code } = await until("the end of the run", () => exitStatus, 480000, 250);
   check(code === 3, `projtour exits 3 (was ${code})`);
   const report = JSON.parse(fs.readFileSync(path.join(runDir, "report.json"), "utf8"));
   const record = report.targets.find((t) => t.id === skipped);
