@@ -76,7 +76,38 @@ const exited = new Promise((resolve) => child.on("exit", (code, signal) => resol
 let exitStatus = null;
 exited.then((s) => { exitStatus = s; });
 
-let browser = null;
+let browser = null;  // the one open, closed at the end
+
+// A browser on the page, with what the page did: script errors and the URLs it asked for.
+async function openPage(base, token) {
+  const profile = fs.mkdtempSync(path.join(outDir, "profile-"));
+  browser = await puppeteer.launch({
+    executablePath: chromium,
+    headless: true,
+    userDataDir: profile,
+    args: ["--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--no-first-run"],
+  });
+  const page = await browser.newPage();
+  await page.setViewport({ width: 1400, height: 1000 });
+  const seen = { page, errors: [], requested: [] };
+  page.on("pageerror", (e) => seen.errors.push(e.message));
+  page.on("request", (r) => seen.requested.push(r.url()));
+  await page.goto(`${base}#token=${token}`);
+  seen.state = () => page.evaluate(() => window.projtourMonitor.lastState);
+  await until("the first state", seen.state, 30000);
+  await page.waitForSelector("#graph g[data-path]");
+  return seen;
+}
+
+function checkRequests(seen, base, token) {
+  check(seen.errors.length === 0, `no script errors on the page ${JSON.stringify(seen.errors)}`);
+  const origin = new URL(base).origin;
+  check(seen.requested.every((u) => u.startsWith(origin)), "the page asks nothing of any other host");
+  // Puppeteer reports a navigation with its fragment, which the browser keeps to itself.
+  check(seen.requested.every((u) => !u.split("#")[0].includes(token)),
+        "the token is in no request's URL");
+}
+
 async function main() {
   const base = await until("the monitor's address on stderr", () => {
     if (exitStatus) throw new Error(`projtour exited early (${JSON.stringify(exitStatus)}): ${stderrText}`);
@@ -91,33 +122,13 @@ async function main() {
     const res = await fetch(new URL(p, base), init);
     return { status: res.status, body: await res.json().catch(() => null) };
   };
-
-  const profile = fs.mkdtempSync(path.join(outDir, "profile-"));
-  browser = await puppeteer.launch({
-    executablePath: chromium,
-    headless: true,
-    userDataDir: profile,
-    args: ["--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--no-first-run"],
-  });
-  const page = await browser.newPage();
-  await page.setViewport({ width: 1400, height: 1000 });
-  const pageErrors = [];
-  page.on("pageerror", (e) => pageErrors.push(e.message));
-  const requested = [];
-  page.on("request", (r) => requested.push(r.url()));
-  await page.goto(`${base}#token=${token}`);
-  const state = () => page.evaluate(() => window.projtourMonitor.lastState);
-  await until("the first state", state, 30000);
-  await page.waitForSelector("#graph g[data-path]");
-
-  if (scenario === "controls") await controls(page, state, api, token);
-  else await browserKilled(page, state, api);
-
-  check(pageErrors.length === 0, `no script errors on the page ${JSON.stringify(pageErrors)}`);
-  const origin = new URL(base).origin;
-  check(requested.every((u) => u.startsWith(origin)), "the page asks nothing of any other host");
-  // Puppeteer reports a navigation with its fragment, which the browser keeps to itself.
-  check(requested.every((u) => !u.split("#")[0].includes(token)), "the token is in no request's URL");
+  const seen = await openPage(base, token);
+  if (scenario === "controls") {
+    await controls(seen.page, seen.state, api, token);
+    checkRequests(seen, base, token);
+  } else {
+    await browserKilled(seen, api, base, token);
+  }
 }
 
 async function screenshot(page, name) {
@@ -273,14 +284,14 @@ async function controls(page, state, api, token) {
   await screenshot(page, "3-finished.png");
 }
 
-async function browserKilled(page, state, api) {
+async function browserKilled(first, api, base, token) {
   const seen = new Set();
   await until("two states on the page", async () => {
-    seen.add((await state()).active_state);
+    seen.add((await first.state()).active_state);
     return seen.size >= 2;
   }, 60000);
-  const before = await state();
-  await screenshot(page, "before-kill.png");
+  const before = await first.state();
+  await screenshot(first.page, "before-kill.png");
   browser.process().kill("SIGKILL");
   browser = null;
   log(`browser killed at mission time ${before.mission_s} s`);
@@ -289,6 +300,24 @@ async function browserKilled(page, state, api) {
     return r.status === 200 && r.body.mission_s > before.mission_s + 5 && r.body;
   }, 60000, 500);
   check(true, `the tour goes on (${later.mission_s} s)`);
+
+  // A page opened later catches up: the whole log so far, in the order of events.jsonl.
+  checkRequests(first, base, token);
+  const second = await openPage(base, token);
+  const known = (await api("/api/state")).body.events;
+  const lines = await until(`the log's first ${known} events on the new page`, async () => {
+    const texts = await second.page.$$eval("#events li:not(.note)", (lis) => lis.map((li) => li.textContent));
+    return texts.length >= known && texts;
+  }, 20000);
+  const written = fs.readFileSync(path.join(runDir, "events.jsonl"), "utf8").trim().split("\n")
+    .slice(0, known).map((l) => JSON.parse(l));
+  const agree = written.every((e, i) => lines[i].includes(`${e.event} ${e.state}`) &&
+                                        (!e.target || lines[i].includes(`[${e.target}]`)));
+  check(written.length === known && agree, `the new page's log has events.jsonl's first ${known} events, in order`);
+  checkRequests(second, base, token);
+  await browser.close();
+  browser = null;
+
   const { code, signal } = await exited;
   check(code === 0 || code === 3, `projtour exits 0 or 3 (was ${code}, signal ${signal})`);
   const report = JSON.parse(fs.readFileSync(path.join(runDir, "report.json"), "utf8"));
