@@ -14,6 +14,8 @@ const char* to_string(EventType type) {
       return "outcome";
     case EventType::transition:
       return "transition";
+    case EventType::control:
+      return "control";
     case EventType::round:
       return "round";
   }
@@ -32,6 +34,13 @@ void to_json(Json& j, const ExecutorEvent& event) {
   if (outcome || transition) j["outcome"] = event.outcome;
   if (outcome && !event.message.empty()) j["message"] = event.message;
   if (transition) j["to"] = event.to;
+  if (event.type == EventType::control) {
+    j["request"] = event.request;
+    j["by"] = event.by;
+    j["accepted"] = event.accepted;
+    if (!event.retry_target.empty()) j["retry_target"] = event.retry_target;
+    if (!event.message.empty()) j["message"] = event.message;
+  }
 }
 
 ExecutorObserver::~ExecutorObserver() = default;

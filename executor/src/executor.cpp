@@ -713,8 +713,10 @@ void Executor::finish_tour(TourOutcome outcome) {
 bool Executor::step() {
   if (!started_) start();
   if (finished_) return false;
-  // Set, not accumulated, so mission time has no drift from summing tick_s.
-  ++ticks_;
+  // Set, not accumulated, so mission time has no drift from summing tick_s. A pause stops it:
+  // the tour's time is what the tour spent, and the devices see the same instant until it
+  // goes on.
+  if (!paused_) ++ticks_;
   clock_.set(start_s_ + static_cast<double>(ticks_) * options_.tick_s);
   const double now_s = clock_.now_s();
   driver_failure_.clear();
@@ -734,7 +736,7 @@ bool Executor::step() {
       driver_failure_ = "service " + services_[i].role + " failed: " + e.what();
     }
   }
-  if (paused_ && cancel_requested_ && leaf_behaviour_ != nullptr) {
+  if (paused_ && (cancel_requested_ || skip_reason_) && leaf_behaviour_ != nullptr) {
     // The paused behaviour has made itself safe (projector blank, head holding, base still).
     // Resuming it only to cancel it would re-show its last frame or re-command its head goal
     // for a tick, so it is stopped as it stands: stop() is the one call every behaviour must
@@ -742,7 +744,10 @@ bool Executor::step() {
     paused_ = false;
     cancel_.request();
     leave_leaf(Outcome{kOutcomeCancelled, "cancelled while paused"});
-    interrupt();
+    const bool skipping = skip_reason_ && !cancel_requested_;
+    after_cancelled_leaf();
+    // The operator paused for a reason: skipping the visit does not also resume the tour.
+    if (skipping) pause();
     return !finished_;
   }
   if (waiting_for_each_ != nullptr && leaf_behaviour_ == nullptr) {
@@ -773,7 +778,7 @@ bool Executor::step() {
   if (cancel_.requested()) {
     if (outcome) {
       leave_leaf(*outcome);
-      interrupt();
+      after_cancelled_leaf();
     } else if (now_s - cancel_started_s_ >= options_.cancel_grace_s - 1e-9) {
       const StateSpec* leaf = active_.back();
       ignored_cancel_.push_back(leaf->path + " (" + leaf->behaviour + ")");
@@ -783,7 +788,7 @@ bool Executor::step() {
       }
       leave_leaf(Outcome{kOutcomeCancelled, "ignored the cancel; stopped after " +
                                                 std::to_string(options_.cancel_grace_s) + " s"});
-      interrupt();
+      after_cancelled_leaf();
     }
     return !finished_;
   }
@@ -822,6 +827,94 @@ void Executor::resume() {
   paused_ = false;
   leaf_timer_.resume(clock_.now_s());
   if (leaf_behaviour_ != nullptr) leaf_behaviour_->resume(leaf_ctx_);
+}
+
+Executor::ControlReply Executor::control(const std::string& request, const std::string& by,
+                                         const std::string& target) {
+  ControlReply reply;
+  if (finished_) {
+    reply.message = "the tour has ended";
+  } else if (request == "pause") {
+    reply.accepted = leaf_behaviour_ != nullptr && !paused_;
+    if (reply.accepted) pause();
+    reply.message = reply.accepted ? "paused" : paused_ ? "already paused" : "no step is active";
+  } else if (request == "resume") {
+    reply.accepted = paused_;
+    if (reply.accepted) resume();
+    reply.message = reply.accepted ? "resumed" : "not paused";
+  } else if (request == "cancel") {
+    reply.accepted = !cancel_requested_;
+    reply.message = reply.accepted ? "cancelling the tour" : "already cancelling";
+  } else if (request == "skip") {
+    reply = skip_current(by);
+  } else if (request == "retry") {
+    reply = retry_target(target);
+  } else {
+    reply.message = "unknown request \"" + request + "\"";
+  }
+  ExecutorEvent e;
+  e.t_s = clock_.now_s();
+  e.type = EventType::control;
+  e.state = active_state();
+  if (current_target_) e.target = run_.mission->targets[*current_target_].id;
+  e.request = request;
+  e.by = by;
+  e.accepted = reply.accepted;
+  e.message = reply.message;
+  e.retry_target = request == "retry" ? target : "";
+  for (ExecutorObserver* o : observers_) o->on_event(e);
+  // After the event, so that the log reads: asked, then what it did.
+  if (reply.accepted && request == "cancel") request_cancel();
+  return reply;
+}
+
+Executor::ControlReply Executor::skip_current(const std::string& by) {
+  if (!current_target_ || visit_state_ == nullptr || leaf_behaviour_ == nullptr) {
+    return {false, "no target is being visited"};
+  }
+  if (skip_reason_ || cancel_requested_) return {false, "already ending this visit"};
+  skip_reason_ = "skipped by " + by;
+  cancel_.request();
+  cancel_started_s_ = clock_.now_s();
+  return {true, "skipping " + run_.mission->targets[*current_target_].id};
+}
+
+Executor::ControlReply Executor::retry_target(const std::string& id) {
+  const auto& targets = run_.mission->targets;
+  std::size_t index = targets.size();
+  for (std::size_t i = 0; i < targets.size(); ++i) {
+    if (targets[i].id == id) index = i;
+  }
+  if (index == targets.size()) return {false, "no target \"" + id + "\" in the mission"};
+  if (current_target_ == index) return {false, id + " is being visited"};
+  const auto record = std::find_if(records_.begin(), records_.end(),
+                                   [&](const TargetRecord& r) { return r.index == index; });
+  if (record == records_.end()) return {false, id + " has not been visited yet"};
+  if (record->outcome == "projected") return {false, id + " was projected"};
+  // A visit loop that has ended visits nothing more; only one still going can take it back.
+  if (current_target_ == std::nullopt && visit_state_ == nullptr) {
+    const bool visiting = std::any_of(active_.begin(), active_.end(),
+                                      [](const StateSpec* s) { return s->for_each_target; });
+    if (!visiting) return {false, "the targets' visits have ended"};
+  }
+  records_.erase(record);
+  done_.erase(index);
+  deferred_.erase(index);
+  return {true, id + " will be visited again later in the tour"};
+}
+
+void Executor::after_cancelled_leaf() {
+  if (skip_reason_ && !cancel_requested_ && current_target_ && visit_state_ != nullptr) {
+    const std::string reason = *skip_reason_;
+    skip_reason_.reset();
+    cancel_.reset();
+    // Content already shown stays shown: the visit is recorded as what it was.
+    end_visit(visit_projected_ ? "projected" : "skipped", visit_projected_ ? "" : reason);
+    process_requests();
+    return;
+  }
+  skip_reason_.reset();
+  interrupt();
 }
 
 void Executor::request_cancel() {

@@ -20,6 +20,7 @@ const char* const kUsage =
     "usage:\n"
     "  projtour run MISSION.yaml [--dry-run] [--world W.yaml] [--seed N] [--out DIR] [--resume]\n"
     "                            [--speed X] [--plugin-path DIR]... [--watchdog-s S]\n"
+    "                            [--monitor [HOST:]PORT | --no-monitor] [--monitor-token FILE]\n"
     "  projtour validate MISSION.yaml [--dry-run] [--world W.yaml] [--plugin-path DIR]...\n"
     "  projtour graph MISSION.yaml [--plugin-path DIR]...\n"
     "  projtour plugins [--plugin-path DIR]...\n"
@@ -41,7 +42,8 @@ enum Option {
   kResume = 16,
   kSpeed = 32,
   kWatchdog = 64,
-  kMission = 128
+  kMission = 128,
+  kMonitor = 256
 };
 
 // Parses a mission subcommand's arguments (argv[2]...); `options` is a mask of what this
@@ -84,6 +86,15 @@ projtour::RunOptions parse_options(int argc, char** argv, int options) {
         app, "--watchdog-s", [&](double s) { run.watchdog_s = s; },
         [](double s) { return s <= 0 ? "must be > 0" : ""; }, "S");
   }
+  if (options & kMonitor) {
+    app.add_option_function<std::string>("--monitor",
+                                         [&](const std::string& a) { run.monitor = a; })
+        ->type_name("[HOST:]PORT");
+    app.add_flag("--no-monitor", run.no_monitor);
+    app.add_option_function<std::string>("--monitor-token",
+                                         [&](const std::string& f) { run.monitor_token_file = f; })
+        ->type_name("FILE");
+  }
   std::vector<std::string> plugin_paths;
   app.add_option("--plugin-path", plugin_paths)->type_name("DIR")->allow_extra_args(false);
   app.add_flag("--allow-writable-plugin-path", run.allow_writable_plugin_path);
@@ -120,7 +131,8 @@ int main(int argc, char** argv) {
   try {
     if (command == "run") {
       const auto options = parse_options(
-          argc, argv, kMission | kDryRun | kWorld | kSeed | kOut | kResume | kSpeed | kWatchdog);
+          argc, argv,
+          kMission | kDryRun | kWorld | kSeed | kOut | kResume | kSpeed | kWatchdog | kMonitor);
       return projtour::run_command(options, std::cout, std::cerr);
     }
     if (command == "validate") {

@@ -15,6 +15,7 @@
 #include <mutex>
 #include <thread>
 
+#include "monitor_hookup.hpp"
 #include "projtour/blackboard.hpp"
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/ground_truth.hpp"
@@ -339,6 +340,14 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   run.clock = &clock;
   run.log = &logger;
 
+  std::unique_ptr<MonitorServer> monitor;
+  try {
+    monitor = start_monitor(options, *prepared, run_dir, err);
+  } catch (const std::exception& e) {
+    err << "projtour: nothing moved: " << e.what() << "\n";
+    return 2;
+  }
+
   // Everything is made before anything moves: a create that throws ends the run here.
   std::vector<ServiceInstance> services;
   BehaviourInstances behaviours;
@@ -346,6 +355,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     for (const auto& [interface, choice] : prepared->drivers) {
       assign_driver(drivers, interface, make_driver(*prepared->registry, choice, run));
     }
+    if (monitor) tap_frames(drivers, *monitor);
     for (const auto& [role, choice] : prepared->services) {
       services.push_back({role, prepared->registry->create_service(choice.kind, choice.params, run),
                           choice.params});
@@ -436,6 +446,21 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   executor.add_observer(&events);
   executor.add_observer(&progress);
   executor.add_observer(&checkpoint_hook);
+  bool stopping = false;  // a stop was asked for: the tour winds down unpaced
+  std::optional<MonitorPublisher> publisher;
+  if (monitor) {
+    executor.add_observer(monitor.get());
+    publisher.emplace(*monitor, executor, run);
+  }
+  // The operator's requests, taken between ticks as the signals are.
+  auto take_controls = [&] {
+    if (!monitor) return;
+    monitor->drain_controls([&](const MonitorControl& c) {
+      const Executor::ControlReply r = executor.control(c.request, "operator", c.target);
+      if (c.request == "cancel" && r.accepted) stopping = true;
+      return MonitorReply{r.accepted, r.message};
+    });
+  };
 
   auto summary_of = [&](TourOutcome outcome, double mission_s,
                         const std::vector<TargetRecord>& records,
@@ -515,9 +540,8 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
 
   const double speed = options.speed.value_or(options.dry_run ? 0.0 : 1.0);
   bool cancelled_on_failure = false;
-  bool stopping = false;  // a stop was asked for: the tour winds down unpaced
   const double mission_start_s = clock.now_s();
-  const auto pace_start = std::chrono::steady_clock::now();
+  auto pace_start = std::chrono::steady_clock::now();
   {
     if (g_stop_signal != 0) {  // while loading: end before any state is entered
       g_stop_signal = 0;
@@ -527,21 +551,23 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     }
     executor.start();
     watchdog.publish(snapshot());
+    if (publisher) publisher->publish();
     while (!executor.finished()) {
       if (g_stop_signal != 0) {
         g_stop_signal = 0;
         err << "\nprojtour: interrupted; cancelling " << executor.active_state() << "\n";
-        executor.request_cancel();
+        executor.control("cancel", "signal");
         stopping = true;
       }
       if (g_pause_signal != 0) {
         g_pause_signal = 0;
-        executor.pause();
+        executor.control("pause", "signal");
       }
       if (g_resume_signal != 0) {
         g_resume_signal = 0;
-        executor.resume();
+        executor.control("resume", "signal");
       }
+      take_controls();
       const std::string state = executor.active_state();
       const StateSpec* spec = state.empty() ? nullptr : prepared->machine->find(state);
       watchdog.tick_started(
@@ -551,6 +577,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
       // process): nothing of this tour may be touched again.
       if (!watchdog.tick_finished()) return 1;
       watchdog.publish(snapshot());
+      if (publisher) publisher->publish();
       trace.sample();
       if (write_failure.empty() && !events.error().empty()) write_failure = events.error();
       // Any writer's, a plugin's that only warned included.
@@ -563,7 +590,14 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
       }
       // Winding down is not paced: the behaviours' cancel grace is mission time, and the safe
       // stop must not wait on wall time for it (a slowed dry run would take minutes).
-      if (speed > 0 && !stopping) {
+      if (executor.paused() && !stopping) {
+        // Mission time stands still while paused: wait a tick of wall time (for a signal or the
+        // operator) instead of spinning, and start pacing again from where the pause ended.
+        const auto before = std::chrono::steady_clock::now();
+        paced_sleep_until(before + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                       std::chrono::duration<double>(executor_options.tick_s)));
+        pace_start += std::chrono::steady_clock::now() - before;
+      } else if (speed > 0 && !stopping) {
         // Bounded, so that a speed of 1e-300 stays a long sleep, not an overflowed cast.
         constexpr double kMaxAheadS = 1e9;
         const double ahead_s = std::min((clock.now_s() - mission_start_s) / speed, kMaxAheadS);
@@ -572,6 +606,10 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
                               std::chrono::duration<double>(ahead_s)));
       }
     }
+  }
+  if (monitor) {
+    publisher->publish();
+    monitor->close();
   }
   progress.finish();
   for (const auto& who : executor.ignored_cancel()) {

@@ -21,6 +21,10 @@ std::string describe(const ExecutorEvent& e) {
   std::string s = std::string(to_string(e.type)) + " " + strip_root(e.state);
   if (e.type == EventType::outcome || e.type == EventType::transition) s += " " + e.outcome;
   if (e.type == EventType::transition) s += " -> " + strip_root(e.to);
+  if (e.type == EventType::control) {
+    s += " " + e.request + (e.retry_target.empty() ? "" : " " + e.retry_target) + " by " + e.by +
+         (e.accepted ? "" : " refused");
+  }
   if (e.target) s += " @" + *e.target;
   return s;
 }

@@ -42,6 +42,10 @@ std::vector<std::string> leaf(const std::string& path, const std::string& outcom
 std::vector<std::string> seq(std::initializer_list<std::vector<std::string>> parts);
 // One happy visit of the default machine: navigate .. next, then the visit's exit.
 std::vector<std::string> happy_visit(const std::string& target);
+// The default machine's end once every target is done.
+inline const std::vector<std::string> kTourEnd = {
+    "outcome visit done", "transition visit done -> done", "enter done", "exit done", "exit tour",
+    "outcome tour done"};
 
 class Harness {
  public:

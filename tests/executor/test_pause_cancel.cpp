@@ -91,11 +91,92 @@ TEST(PauseCancel, CancelWhilePausedStopsWithoutResumeOrTick) {
   EXPECT_EQ(aim.resumes(), 0);
   EXPECT_EQ(aim.ticks_seen(), ticks_before);
   EXPECT_EQ(aim.stops(), 1);
-  EXPECT_NEAR(h.clock.now_s() - cancelled_at_s, 0.05, 1e-9);  // the very next step
+  // The very next step, at the paused instant: a pause stands mission time still (issue 16).
+  EXPECT_NEAR(h.clock.now_s() - cancelled_at_s, 0.0, 1e-9);
   EXPECT_FALSE(h.executor->paused());
   EXPECT_TRUE(h.executor->records().empty());
   EXPECT_EQ(h.executor->current_target(), std::optional<std::size_t>(0));
   EXPECT_TRUE(h.executor->ignored_cancel().empty());
+}
+
+// Issue 16: the operator's skip goes through the leaf's cooperative cancel; the visit ends
+// skipped, saying who asked, and the tour goes on to the next target.
+TEST(OperatorControl, SkipEndsTheCurrentVisitSkippedAndTheTourGoesOn) {
+  Harness h({"rabbit", "sign"});
+  h.script("aim", "succeeded", 5);
+  h.load_default();
+  h.build();
+  ASSERT_TRUE(h.step_until("visit/aim", "rabbit"));
+  const Executor::ControlReply reply = h.executor->control("skip", "operator");
+  EXPECT_TRUE(reply.accepted) << reply.message;
+  EXPECT_EQ(h.run(), TourOutcome::completed_with_skips);
+  ASSERT_SEQUENCE(
+      h.recorder,
+      seq({{"enter tour", "enter visit @rabbit"},
+           leaf("visit/navigate", "succeeded", "visit/aim", "rabbit"),
+           {"enter visit/aim @rabbit", "control visit/aim skip by operator @rabbit",
+            "outcome visit/aim cancelled @rabbit", "exit visit/aim @rabbit", "exit visit @rabbit"},
+           happy_visit("sign"),
+           kTourEnd}));
+  ASSERT_EQ(h.executor->records().size(), 2u);
+  EXPECT_EQ(h.executor->records()[0].outcome, "skipped");
+  EXPECT_EQ(h.executor->records()[0].reason, "skipped by operator");
+  EXPECT_EQ(h.executor->records()[1].outcome, "projected");
+}
+
+// A skip while paused stops the paused leaf as it stands (as a cancel does) and the tour stays
+// paused in the next visit, its mission time still, until the operator resumes it.
+TEST(OperatorControl, SkipWhilePausedKeepsTheTourPaused) {
+  Harness h({"rabbit", "sign"});
+  h.script("aim", "succeeded", 1000);
+  h.load_default();
+  h.build();
+  ASSERT_TRUE(h.step_until("visit/aim", "rabbit"));
+  EXPECT_TRUE(h.executor->control("pause", "operator").accepted);
+  EXPECT_TRUE(h.executor->control("skip", "operator").accepted);
+  const double paused_at_s = h.clock.now_s();
+  for (int i = 0; i < 50; ++i) h.executor->step();
+  EXPECT_TRUE(h.executor->paused());
+  EXPECT_EQ(h.executor->current_target(), std::optional<std::size_t>(1));
+  EXPECT_EQ(h.executor->active_state(), "tour/visit/navigate");
+  EXPECT_NEAR(h.clock.now_s(), paused_at_s, 1e-9);
+  EXPECT_EQ(h.behaviour("visit/aim").resumes(), 0);
+  EXPECT_TRUE(h.executor->control("resume", "operator").accepted);
+  h.script("aim", "succeeded", 1);
+  EXPECT_EQ(h.run(), TourOutcome::completed_with_skips);
+  EXPECT_EQ(h.executor->records()[0].reason, "skipped by operator");
+}
+
+// Retry takes a skipped target back: it is visited again later in the tour, its record
+// replaced by the new visit's. What cannot be retried is refused and recorded as refused.
+TEST(OperatorControl, RetryVisitsASkippedTargetAgainLaterInTheTour) {
+  Harness h({"rabbit", "sign", "pillar"});
+  h.load_default();
+  h.build();
+  ASSERT_TRUE(h.step_until("visit/aim", "rabbit"));
+  EXPECT_TRUE(h.executor->control("skip", "operator").accepted);
+  ASSERT_TRUE(h.step_until("visit/aim", "sign"));
+  EXPECT_FALSE(h.executor->control("retry", "operator", "sign").accepted);    // being visited
+  EXPECT_FALSE(h.executor->control("retry", "operator", "pillar").accepted);  // not yet visited
+  EXPECT_FALSE(h.executor->control("retry", "operator", "nowhere").accepted);
+  EXPECT_TRUE(h.executor->control("retry", "operator", "rabbit").accepted);
+  EXPECT_EQ(h.run(), TourOutcome::completed);
+  std::vector<std::string> order;
+  for (const TargetRecord& r : h.executor->records()) order.push_back(r.id + " " + r.outcome);
+  EXPECT_EQ(order,
+            (std::vector<std::string>{"sign projected", "rabbit projected", "pillar projected"}));
+  std::vector<std::string> controls;
+  for (const std::string& line : h.recorder.lines()) {
+    if (line.rfind("control", 0) == 0) controls.push_back(line);
+  }
+  EXPECT_EQ(controls,
+            (std::vector<std::string>{"control visit/aim skip by operator @rabbit",
+                                      "control visit/aim retry sign by operator refused @sign",
+                                      "control visit/aim retry pillar by operator refused @sign",
+                                      "control visit/aim retry nowhere by operator refused @sign",
+                                      "control visit/aim retry rabbit by operator @sign"}));
+  // After the tour, nothing is taken.
+  EXPECT_FALSE(h.executor->control("pause", "operator").accepted);
 }
 
 }  // namespace

@@ -13,10 +13,6 @@
 namespace projtour::testing {
 namespace {
 
-const std::vector<std::string> kTourEnd = {"outcome visit done", "transition visit done -> done",
-                                           "enter done",         "exit done",
-                                           "exit tour",          "outcome tour done"};
-
 class ResumeAfterInterruption : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(ResumeAfterInterruption, RestartsTheInterruptedTargetFromNavigate) {

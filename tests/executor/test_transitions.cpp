@@ -9,10 +9,6 @@
 namespace projtour::testing {
 namespace {
 
-const std::vector<std::string> kTourEnd = {"outcome visit done", "transition visit done -> done",
-                                           "enter done",         "exit done",
-                                           "exit tour",          "outcome tour done"};
-
 TEST(Transitions, HappyPathOverThreeTargets) {
   Harness h;
   h.load_default();
@@ -211,8 +207,8 @@ TEST(Transitions, PauseAndResume) {
   EXPECT_EQ(h.behaviour("visit/navigate").resumes(), 1);
   EXPECT_EQ(h.run(), TourOutcome::completed);
   ASSERT_SEQUENCE(h.recorder, seq({{"enter tour"}, happy_visit("rabbit"), kTourEnd}));
-  // Navigate's 10 ticks plus the 100 paused ones.
-  EXPECT_NEAR(h.recorder.events[3].t_s, 0.05 * 110, 1e-9);
+  // Navigate's 10 ticks: the 100 paused ones stand mission time still (issue 16).
+  EXPECT_NEAR(h.recorder.events[3].t_s, 0.05 * 10, 1e-9);
 }
 
 TEST(Transitions, PausedTimeDoesNotCountTowardTimeout) {

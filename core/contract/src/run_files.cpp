@@ -238,7 +238,10 @@ std::string HeldRunDirectory::first_failure() const {
   return entry_->failure;
 }
 
-void write_run_file(const std::filesystem::path& file, std::string_view bytes) {
+namespace {
+
+void write_run_file_with_mode(const std::filesystem::path& file, std::string_view bytes,
+                              mode_t mode) {
   const Beneath b = held_root_of(file);
   noting_failure(b, [&] {
     const Located at = locate(file, b, false);
@@ -250,7 +253,7 @@ void write_run_file(const std::filesystem::path& file, std::string_view bytes) {
         at.name + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(serial.fetch_add(1));
     const std::filesystem::path tmp_shown = file.parent_path() / tmp;
     Fd fd(::openat(at.dir.get(), tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC,
-                   0644));
+                   mode));
     if (fd.get() < 0) throw failure("cannot write", tmp_shown, errno);
     const auto fail = [&](const std::string& what, int err) {
       ::unlinkat(at.dir.get(), tmp.c_str(), 0);
@@ -273,6 +276,17 @@ void write_run_file(const std::filesystem::path& file, std::string_view bytes) {
                                ": " + std::strerror(err));
     }
   });
+}
+
+}  // namespace
+
+void write_run_file(const std::filesystem::path& file, std::string_view bytes) {
+  write_run_file_with_mode(file, bytes, 0644);
+}
+
+void write_private_run_file(const std::filesystem::path& file, std::string_view bytes) {
+  // Created 0600 (the umask can only take away): never readable by others, not even briefly.
+  write_run_file_with_mode(file, bytes, 0600);
 }
 
 void make_run_directory(const std::filesystem::path& dir) {

@@ -12,7 +12,7 @@ namespace projtour {
 
 // round: a round of a schedule begins or ends (outcome "begin" | "end", message when and how it
 // went).
-enum class EventType { enter, exit, outcome, transition, round };
+enum class EventType { enter, exit, outcome, transition, control, round };
 const char* to_string(EventType type);
 
 struct ExecutorEvent {
@@ -23,6 +23,12 @@ struct ExecutorEvent {
   std::string outcome;  // outcome and transition events
   std::string message;  // outcome events: why
   std::string to;       // transition events: a state path or skip_target/finish/abort
+  // control events: what was asked (pause, resume, cancel, skip, retry), by whom (operator,
+  // signal), whether it was done (`message` says why not, or what), and retry's target.
+  std::string request;
+  std::string by;
+  bool accepted = false;
+  std::string retry_target;
   // The schedule's round the event happened in (1, 2, ...); 0, and not written, without one.
   int round = 0;
 };

@@ -89,6 +89,17 @@ class Executor {
   // paused behaviour is stopped at the next step without being resumed.
   void request_cancel();
 
+  // An operator's or a signal's request, by name: pause, resume, cancel (the tour), skip (the
+  // current visit ends `skipped`, reason "skipped by <by>", through the same cooperative cancel
+  // as the tour's: the leaf gets cancel_grace_s to return), retry (`target`, skipped or failed
+  // earlier, is visited again later in the tour; its record is replaced by the new visit's).
+  // Every request is recorded as a `control` event with who asked, accepted or not.
+  struct ControlReply {
+    bool accepted = false;
+    std::string message;  // why not, or what was done
+  };
+  ControlReply control(const std::string& request, const std::string& by,
+                       const std::string& target = "");
   bool finished() const { return finished_; }
   TourOutcome outcome() const { return outcome_; }
   // Finished targets in the order they were visited (restored ones first).
@@ -151,6 +162,10 @@ class Executor {
   void abort_tour(const std::string& reason);
   int retries_taken() const;
   void interrupt();
+  // After a leaf ended on a cancel: the operator's skip of the visit, or the tour's end.
+  void after_cancelled_leaf();
+  ControlReply skip_current(const std::string& by);
+  ControlReply retry_target(const std::string& id);
   void finish_tour(TourOutcome outcome);
   Context make_context(const StateSpec* leaf) const;
 
@@ -172,6 +187,7 @@ class Executor {
   bool paused_ = false;
   bool cancel_requested_ = false;
   double cancel_started_s_ = 0.0;
+  std::optional<std::string> skip_reason_;  // a skip of the visit is cancelling its leaf
   bool finished_ = false;
   TourOutcome outcome_ = TourOutcome::running;
   std::string driver_failure_;

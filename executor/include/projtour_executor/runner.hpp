@@ -40,6 +40,12 @@ struct RunOptions {
   double cancel_grace_s = 2.0;
   // Wall-clock limit for one tick of a state without timeout_s (states with one use it).
   double watchdog_s = 30.0;
+  // The live monitor (monitor.hpp): "[HOST:]PORT" to serve it; unset, off in a dry run and on
+  // 127.0.0.1:8470 on hardware unless no_monitor. The control token is read from
+  // monitor_token_file when given (required to bind anything but loopback), else made up.
+  std::optional<std::string> monitor;
+  bool no_monitor = false;
+  std::optional<std::filesystem::path> monitor_token_file;
 };
 
 // A kind with its checked parameters.

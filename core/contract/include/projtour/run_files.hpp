@@ -43,6 +43,8 @@ class HeldRunDirectory {
 // never through a link), flushed and fsync'ed, then renamed over `file`, so a reader never sees
 // half a file. `file` itself may not be a symbolic link. Throws std::runtime_error.
 void write_run_file(const std::filesystem::path& file, std::string_view bytes);
+// write_run_file for a secret (the monitor's control token): readable by its owner only.
+void write_private_run_file(const std::filesystem::path& file, std::string_view bytes);
 
 // `dir` and any missing parents. `dir` itself must end up a real directory: a symbolic link
 // there throws std::runtime_error naming it (the run directory was searched for links when the
