@@ -156,7 +156,7 @@ void MonitorPublisher::publish() {
   s.finished = executor_.finished();
   s.outcome = s.finished ? to_string(executor_.outcome()) : "";
   if (const PoseEstimate2D* e = run_.blackboard->find(keys::kLocalization)) s.estimate = e->mean;
-  if (GroundTruth* truth = run_.drivers->ground_truth()) {
+  if (GroundTruth* truth = run_.drivers != nullptr ? run_.drivers->ground_truth() : nullptr) {
     s.truth = pose2d_from_isometry(truth->true_T_map_base());
     s.people = truth->people_positions();
   }
