@@ -862,7 +862,7 @@ Executor::ControlReply Executor::control(const std::string& request, const std::
   e.accepted = reply.accepted;
   e.message = reply.message;
   e.retry_target = request == "retry" ? target : "";
-  for (ExecutorObserver* o : observers_) o->on_event(e);
+  publish(e);
   // After the event, so that the log reads: asked, then what it did.
   if (reply.accepted && request == "cancel") request_cancel();
   return reply;
@@ -887,10 +887,13 @@ Executor::ControlReply Executor::retry_target(const std::string& id) {
   }
   if (index == targets.size()) return {false, "no target \"" + id + "\" in the mission"};
   if (current_target_ == index) return {false, id + " is being visited"};
-  const auto record = std::find_if(records_.begin(), records_.end(),
-                                   [&](const TargetRecord& r) { return r.index == index; });
+  // This round's record: a scheduled tour keeps one per round, and earlier rounds are history.
+  const auto record = std::find_if(records_.begin(), records_.end(), [&](const TargetRecord& r) {
+    return r.index == index && (!options_.schedule.written || r.round == round_);
+  });
   if (record == records_.end()) return {false, id + " has not been visited yet"};
   if (record->outcome == "projected") return {false, id + " was projected"};
+  if (record->outcome == "outside_hours") return {false, id + " is outside its hours"};
   // A visit loop that has ended visits nothing more; only one still going can take it back.
   if (current_target_ == std::nullopt && visit_state_ == nullptr) {
     const bool visiting = std::any_of(active_.begin(), active_.end(),
