@@ -130,7 +130,10 @@ std::unique_ptr<MonitorServer> start_monitor(const RunOptions& options, const Pr
   write_private_run_file(run_dir / "monitor_token", o.token + "\n");
   err << "projtour: monitor on http://"
       << (o.host.find(':') != std::string::npos ? "[" + o.host + "]" : o.host) << ":"
-      << monitor->port() << "/ (control token in " << (run_dir / "monitor_token").string() << ")\n";
+      << monitor->port() << "/ (control token in " << (run_dir / "monitor_token").string();
+  // A token of the user's own is theirs already; a made-up one is told once, at the start.
+  if (!options.monitor_token_file) err << ": " << o.token;
+  err << ")\n";
   return monitor;
 }
 

@@ -841,6 +841,42 @@ TEST_F(Command, SignalActsWithinATenthOfASecondAtAnySpeed) {
   }
 }
 
+// Issue 16: a monitor off loopback needs a token of the user's own and is warned about; a
+// monitor address that is not one, or a token file that is no token, stops the run before
+// anything moves.
+TEST_F(Command, MonitorOffLoopbackNeedsATokenFileAndBadAddressesExitTwo) {
+  const std::string mission = kSource + "/missions/minimal.yaml --dry-run";
+  ASSERT_EQ(projtour("run " + mission + " --monitor 0.0.0.0:0 --out " + (dir_ / "a").string()), 2);
+  EXPECT_NE(err().find("--monitor 0.0.0.0:0 is not a loopback address: serving it needs "
+                       "--monitor-token FILE"),
+            std::string::npos)
+      << err();
+  EXPECT_FALSE(fs::exists(dir_ / "a" / "events.jsonl"));
+  ASSERT_EQ(
+      projtour("run " + mission + " --monitor 127.0.0.1:99999 --out " + (dir_ / "b").string()), 2);
+  EXPECT_NE(err().find("expected [HOST:]PORT with PORT from 0 (any free one) to 65535"),
+            std::string::npos)
+      << err();
+  std::ofstream(dir_ / "short.token") << "abc\n";
+  ASSERT_EQ(projtour("run " + mission + " --monitor 127.0.0.1:0 --monitor-token " +
+                     (dir_ / "short.token").string() + " --out " + (dir_ / "c").string()),
+            2);
+  EXPECT_NE(err().find("expected one line of 16 to 256 characters"), std::string::npos) << err();
+  std::ofstream(dir_ / "good.token") << "a-token-of-my-own-0123456789\n";
+  ASSERT_EQ(projtour("run " + mission + " --monitor 0.0.0.0:0 --monitor-token " +
+                     (dir_ / "good.token").string() + " --out " + (dir_ / "d").string()),
+            0)
+      << err();
+  EXPECT_NE(err().find("warning: the monitor is served on 0.0.0.0, reachable from other machines"),
+            std::string::npos)
+      << err();
+  EXPECT_EQ(err().find("a-token-of-my-own"), std::string::npos) << "a token of the user's own is "
+                                                                   "never printed";
+  EXPECT_EQ(read_text(dir_ / "d" / "monitor_token"), "a-token-of-my-own-0123456789\n");
+  EXPECT_EQ(fs::status(dir_ / "d" / "monitor_token").permissions() & fs::perms::all,
+            fs::perms::owner_read | fs::perms::owner_write);
+}
+
 TEST_F(Command, SpeedBelowOneOnlyInADryRun) {
   ASSERT_EQ(projtour("run " + kSource + "/missions/scripted_tour.yaml --speed 0.5 --out " +
                      (dir_ / "run").string()),
