@@ -13,6 +13,7 @@
 #include "projtour_executor/executor.hpp"
 #include "projtour_executor/monitor.hpp"
 #include "projtour_test/run_rig.hpp"
+#include "projtour_test/tour_kinds.hpp"
 #include "scripted_behaviour.hpp"
 // After Eigen (the projtour headers): httplib includes <resolv.h>, whose `_res` macro is a
 // parameter name in Eigen's headers.
@@ -38,23 +39,8 @@ struct Tour {
       mission.targets.push_back(t);
     }
     run.dry_run = false;
-    // The default machine's kinds, as tests/executor/executor_harness.cpp's tour_kinds(); each
-    // plays its first outcome (its success) unless `scripts` says otherwise.
-    const std::map<std::string, std::vector<std::string>> kinds = {
-        {"navigate", {"succeeded", "unreachable", "blocked", "timeout", "lost"}},
-        {"relocalize", {"succeeded", "lost"}},
-        {"aim", {"succeeded", "out_of_reach", "reapproach"}},
-        {"capture", {"succeeded", "no_frame"}},
-        {"align", {"succeeded", "poor_fit", "no_target"}},
-        {"calibrate",
-         {"succeeded", "off_screen", "too_few_points", "poor_fit", "no_frame", "blocked_beam"}},
-        {"verify",
-         {"verified", "out_of_tolerance", "misaligned", "uncertain", "occluded", "not_seen",
-          "off_screen", "no_frame", "blocked_beam"}},
-        {"wait", {"succeeded"}},
-        {"project", {"succeeded", "off_screen", "blocked_beam"}},
-        {"next", {"succeeded"}}};
-    for (const auto& [kind, outcomes] : kinds) {
+    // Each kind plays its first outcome (its success) unless `scripts` says otherwise.
+    for (const auto& [kind, outcomes] : test::tour_kinds()) {
       Params p = default_params(testing::scripted_param_specs());
       p.set("outcomes", scripts.count(kind) ? scripts.at(kind) : outcomes.front());
       p.set("ticks", ticks);

@@ -84,26 +84,6 @@ std::vector<std::string> happy_visit(const std::string& t) {
               {"exit visit @" + t}});
 }
 
-const std::map<std::string, std::vector<std::string>>& tour_kinds() {
-  static const std::map<std::string, std::vector<std::string>> kKinds = {
-      {"navigate", {"succeeded", "unreachable", "blocked", "timeout", "lost"}},
-      {"relocalize", {"succeeded", "lost"}},
-      {"aim", {"succeeded", "out_of_reach", "reapproach"}},
-      {"capture", {"succeeded", "no_frame"}},
-      {"align", {"succeeded", "poor_fit", "no_target"}},
-      {"calibrate",
-       {"succeeded", "off_screen", "too_few_points", "poor_fit", "no_frame", "blocked_beam"}},
-      {"verify",
-       {"verified", "out_of_tolerance", "misaligned", "uncertain", "occluded", "not_seen",
-        "off_screen", "no_frame", "blocked_beam"}},
-      {"wait", {"succeeded"}},
-      {"project", {"succeeded", "off_screen", "blocked_beam"}},
-      {"next", {"succeeded"}},
-      {"scripted", {"succeeded"}},
-  };
-  return kKinds;
-}
-
 Harness::Harness(std::vector<std::string> target_ids) {
   mission.name = "harness";
   for (const auto& id : target_ids) {

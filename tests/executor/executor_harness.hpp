@@ -10,6 +10,7 @@
 
 #include "projtour_executor/executor.hpp"
 #include "projtour_test/run_rig.hpp"
+#include "projtour_test/tour_kinds.hpp"
 #include "scripted_behaviour.hpp"
 
 namespace projtour::testing {
@@ -82,6 +83,6 @@ class Harness {
 };
 
 // The tour's kinds with their outcome sets.
-const std::map<std::string, std::vector<std::string>>& tour_kinds();
+using test::tour_kinds;
 
 }  // namespace projtour::testing
