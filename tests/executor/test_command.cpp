@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <sstream>
 
 #include "projtour/params_reader.hpp"
@@ -72,14 +73,19 @@ class Command : public ::testing::Test {
   int projtour(const std::string& args) { return test::run(command(args)).status; }
   // projtour with `args`, stopped right after it writes `marker` and sent SIGINT there: its exit
   // status (-1 when it never reached the marker; its stderr is in stderr1.txt).
-  int interrupt_after(const std::string& args, const std::string& marker) {
+  // The command as a child that stops itself right after it writes the first events.jsonl line
+  // holding `marker` (its output in stderr1.txt).
+  std::unique_ptr<test::Child> stopping_after(const std::string& args, const std::string& marker) {
     test::ChildOptions options = command(args, "1");
     options.stop_after_write = marker;
-    test::Child child(options);
-    if (!child.wait_stopped(std::chrono::seconds(60))) return -1;
-    child.signal(SIGINT);
-    child.resume();
-    return child.wait(std::chrono::seconds(60));
+    return std::make_unique<test::Child>(options);
+  }
+  int interrupt_after(const std::string& args, const std::string& marker) {
+    const auto child = stopping_after(args, marker);
+    if (!child->wait_stopped(std::chrono::seconds(60))) return -1;
+    child->signal(SIGINT);
+    child->resume();
+    return child->wait(std::chrono::seconds(60));
   }
   std::string err() const { return read_text(dir_ / "stderr.txt"); }
   std::string out() const { return read_text(dir_ / "stdout.txt"); }
@@ -620,12 +626,11 @@ TEST_F(Command, EmptyOutIsAnError) {
 TEST_F(Command, SecondRunOrResumeOnALockedDirectoryNamesTheHolder) {
   const fs::path run = dir_ / "run";
   const std::string mission = kSource + "/missions/scripted_tour.yaml";
-  test::ChildOptions options = command("run " + mission + " --speed 4 --out " + run.string(), "1");
-  options.stop_after_write = "\"state\": \"tour/visit/aim\"";
-  test::Child holder(options);
-  ASSERT_TRUE(holder.wait_stopped(std::chrono::seconds(30))) << holder.err();
+  const auto holder = stopping_after("run " + mission + " --speed 4 --out " + run.string(),
+                                     "\"state\": \"tour/visit/aim\"");
+  ASSERT_TRUE(holder->wait_stopped(std::chrono::seconds(30))) << holder->err();
   const std::string named = "is in use by another projtour run (pid " +
-                            std::to_string(holder.pid()) +
+                            std::to_string(holder->pid()) +
                             "): one run directory, one run at a time";
   const auto started = std::chrono::steady_clock::now();
   EXPECT_EQ(projtour("run " + mission + " --speed 1000 --out " + run.string()), 2);
@@ -634,8 +639,8 @@ TEST_F(Command, SecondRunOrResumeOnALockedDirectoryNamesTheHolder) {
   EXPECT_NE(err().find(named), std::string::npos) << err();
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(),
             10.0);
-  holder.resume();
-  EXPECT_EQ(holder.wait(std::chrono::seconds(60)), 0) << holder.err();
+  holder->resume();
+  EXPECT_EQ(holder->wait(std::chrono::seconds(60)), 0) << holder->err();
   // The holder's events are its own: one tour, entered once.
   std::size_t tours = 0;
   for (const Json& e : read_jsonl(run / "events.jsonl")) {
@@ -672,15 +677,14 @@ TEST_F(Command, DirectoryLinkPlantedDuringARunIsRefusedAndEndsTheRun) {
   const fs::path run = dir_ / "run";
   const fs::path victim = dir_ / "victim";
   fs::create_directories(victim);
-  test::ChildOptions options = command(
-      "run " + kSource + "/missions/scripted_tour.yaml --speed 4 --out " + run.string(), "1");
-  options.stop_after_write = "\"state\": \"tour/visit/aim\"";
-  test::Child child(options);
-  ASSERT_TRUE(child.wait_stopped(std::chrono::seconds(30))) << child.err();
+  const auto child = stopping_after(
+      "run " + kSource + "/missions/scripted_tour.yaml --speed 4 --out " + run.string(),
+      "\"state\": \"tour/visit/aim\"");
+  ASSERT_TRUE(child->wait_stopped(std::chrono::seconds(30))) << child->err();
   fs::rename(run / "targets", run / "targets.moved");
   fs::create_directory_symlink(victim, run / "targets");
-  child.resume();
-  EXPECT_EQ(child.wait(std::chrono::seconds(60)), 1) << child.err();
+  child->resume();
+  EXPECT_EQ(child->wait(std::chrono::seconds(60)), 1) << child->err();
   EXPECT_TRUE(fs::is_empty(victim));
   const Json report = read_json_file(run / "report.json");
   EXPECT_EQ(report.at("outcome").get<std::string>(), "aborted");
@@ -694,16 +698,15 @@ TEST_F(Command, DirectoryLinkPlantedDuringARunIsRefusedAndEndsTheRun) {
 TEST_F(Command, DeletingTheLockFileDoesNotFreeTheDirectory) {
   const fs::path run = dir_ / "run";
   const std::string mission = kSource + "/missions/scripted_tour.yaml";
-  test::ChildOptions options = command("run " + mission + " --speed 4 --out " + run.string(), "1");
-  options.stop_after_write = "\"state\": \"tour/visit/aim\"";
-  test::Child holder(options);
-  ASSERT_TRUE(holder.wait_stopped(std::chrono::seconds(30))) << holder.err();
+  const auto holder = stopping_after("run " + mission + " --speed 4 --out " + run.string(),
+                                     "\"state\": \"tour/visit/aim\"");
+  ASSERT_TRUE(holder->wait_stopped(std::chrono::seconds(30))) << holder->err();
   fs::remove(run / ".lock");
   EXPECT_EQ(projtour("run " + mission + " --resume --speed 1000 --out " + run.string()), 2);
   EXPECT_NE(err().find("is in use by another projtour run (pid unknown)"), std::string::npos)
       << err();
-  holder.resume();
-  EXPECT_EQ(holder.wait(std::chrono::seconds(60)), 0) << holder.err();
+  holder->resume();
+  EXPECT_EQ(holder->wait(std::chrono::seconds(60)), 0) << holder->err();
 }
 
 // --out may itself be a link to a directory: the user's choice, followed once at the claim.
