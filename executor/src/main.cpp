@@ -18,7 +18,8 @@ namespace {
 
 const char* const kUsage =
     "usage:\n"
-    "  projtour run MISSION.yaml [--dry-run] [--world W.yaml] [--seed N] [--out DIR] [--resume]\n"
+    "  projtour run MISSION.yaml [--dry-run [--ros2-bridge]] [--world W.yaml] [--seed N] [--out "
+    "DIR] [--resume]\n"
     "                            [--speed X] [--plugin-path DIR]... [--watchdog-s S]\n"
     "                            [--monitor [HOST:]PORT | --no-monitor] [--monitor-token FILE]\n"
     "  projtour validate MISSION.yaml [--dry-run] [--world W.yaml] [--plugin-path DIR]...\n"
@@ -60,6 +61,7 @@ projtour::RunOptions parse_options(int argc, char** argv, int options) {
   std::string mission;
   if (options & kMission) app.add_option("mission", mission, "MISSION.yaml");
   if (options & kDryRun) app.add_flag("--dry-run", run.dry_run);
+  if (options & kDryRun) app.add_flag("--ros2-bridge", run.ros2_bridge);
   if (options & kWorld) {
     app.add_option_function<std::string>("--world", [&](const std::string& w) { run.world = w; })
         ->type_name("W.yaml");

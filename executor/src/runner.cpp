@@ -29,6 +29,7 @@
 #include "projtour_executor/summary_page.hpp"
 #include "projtour_executor/tour_picture.hpp"
 #include "projtour_executor/watchdog.hpp"
+#include "ros2_status.hpp"
 
 namespace projtour {
 
@@ -452,6 +453,16 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     executor.add_observer(monitor.get());
     publisher.emplace(*monitor, executor, run);
   }
+  std::optional<Ros2Status> ros2_status;
+  if (wants_ros2_status(run, options.ros2_bridge)) {
+    try {
+      ros2_status.emplace(executor, run);
+    } catch (const std::exception& e) {
+      err << "projtour: nothing moved: ROS 2 status: " << e.what() << "\n";
+      for (const auto& d : drivers.all()) d->safe_stop();
+      return 2;
+    }
+  }
   // The operator's requests, taken between ticks as the signals are.
   auto take_controls = [&] {
     if (!monitor) return;
@@ -552,6 +563,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     executor.start();
     watchdog.publish(snapshot());
     if (publisher) publisher->publish();
+    if (ros2_status) ros2_status->publish();
     while (!executor.finished()) {
       if (g_stop_signal != 0) {
         g_stop_signal = 0;
@@ -578,6 +590,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
       if (!watchdog.tick_finished()) return 1;
       watchdog.publish(snapshot());
       if (publisher) publisher->publish();
+      if (ros2_status) ros2_status->publish();
       trace.sample();
       if (write_failure.empty() && !events.error().empty()) write_failure = events.error();
       // Any writer's, a plugin's that only warned included.

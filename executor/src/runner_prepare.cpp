@@ -90,6 +90,10 @@ std::unique_ptr<PreparedRun> prepare_run(const RunOptions& options, PrepareDepth
   auto mission = load_mission(options.mission, diag);
   if (!mission) return nullptr;
   run->mission = std::move(*mission);
+  if (options.ros2_bridge && !options.dry_run) {
+    diag.error(SourceMark{options.mission.string(), 0, 0}, "",
+               "--ros2-bridge is only for a dry run (add --dry-run)");
+  }
   if (options.world) {
     if (!options.dry_run) {
       diag.error(SourceMark{options.world->string(), 0, 0}, "",
@@ -121,9 +125,15 @@ std::unique_ptr<PreparedRun> prepare_run(const RunOptions& options, PrepareDepth
     // RunContext.
     for (const auto& interface : kInterfaces) {
       PluginInstanceSpec spec;
-      spec.kind = "sim_" + interface;
-      spec.params_path = "dry run: " + interface + " driver.params";
-      spec.mark = run->mission.mark_of("robot");
+      const bool over_ros2 = options.ros2_bridge && (interface == "base" || interface == "laser");
+      if (over_ros2 && run->mission.drivers.count(interface) &&
+          run->mission.drivers.at(interface).kind == "ros2_" + interface) {
+        spec = run->mission.drivers.at(interface);  // its parameters as the robot file gives them
+      } else {
+        spec.kind = (over_ros2 ? "ros2_" : "sim_") + interface;
+        spec.params_path = "dry run: " + interface + " driver.params";
+        spec.mark = run->mission.mark_of("robot");
+      }
       if (auto c =
               check_instance(*run->registry, spec, Family::driver, interface, robot_file, diag)) {
         run->drivers[interface] = std::move(*c);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <iostream>
 #include <numeric>
+#include <stdexcept>
 
 #include "projtour/behaviour.hpp"
 #include "projtour/blackboard.hpp"
@@ -31,6 +32,9 @@ std::optional<BuildingTruth> GroundTruth::building_truth() const {
 }
 std::vector<Eigen::Vector2d> GroundTruth::people_positions() const {
   return {};
+}
+void GroundTruth::follow_true_base(const Pose2D&) {
+  throw std::logic_error("this simulator's base cannot follow another simulator's");
 }
 Behaviour::~Behaviour() = default;
 void Behaviour::stop(Context&) {}

@@ -1,5 +1,7 @@
 // The robot file (format documented in examples/robot/ud.yaml).
 #include <algorithm>
+#include <cctype>
+#include <cstdlib>
 
 #include "loader_fields.hpp"
 #include "projtour/mission_loader.hpp"
@@ -261,6 +263,147 @@ void read_structured_light(const YamlField& f, const PinholeModel& projector,
   }
 }
 
+// ROS 2's name rules (design.ros2.org "Topic and Service name mapping"): tokens of letters,
+// digits and underscores, not starting with a digit, joined by single slashes.
+std::optional<std::string> ros2_name_problem(const std::string& name, bool absolute_allowed) {
+  if (name.empty()) return "is empty";
+  std::string rest = name;
+  if (rest.front() == '/') {
+    if (!absolute_allowed) return "must not start with '/'";
+    rest.erase(0, 1);
+    if (rest.empty()) return "is only '/'";
+  }
+  std::size_t start = 0;
+  while (start <= rest.size()) {
+    const std::size_t end = std::min(rest.find('/', start), rest.size());
+    const std::string token = rest.substr(start, end - start);
+    if (token.empty()) return "has an empty token (a doubled or trailing '/')";
+    if (std::isdigit(static_cast<unsigned char>(token.front()))) {
+      return "has a token starting with a digit (\"" + token + "\")";
+    }
+    for (char c : token) {
+      if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_') {
+        return std::string("has the character '") + c + "' (only letters, digits, '_' and '/')";
+      }
+    }
+    start = end + 1;
+  }
+  return std::nullopt;
+}
+
+void read_ros2_name(const YamlField& f, bool absolute_allowed, std::string& out) {
+  if (!f.defined()) return;
+  auto v = f.as_string();
+  if (!v) return;
+  if (auto problem = ros2_name_problem(*v, absolute_allowed)) {
+    f.error("expected a ROS 2 name; \"" + *v + "\" " + *problem);
+    return;
+  }
+  out = *v;
+}
+
+// A topic is its name alone, or {name, reliability, depth} to change ROS 2's QoS default.
+void read_ros2_topic(const YamlField& f, Ros2TopicSpec& topic) {
+  if (!f.defined()) return;
+  if (f.is_scalar()) {
+    read_ros2_name(f, true, topic.name);
+    return;
+  }
+  if (!f.expect_map()) return;
+  loader::check_keys(f, {"name", "reliability", "depth"});
+  read_ros2_name(f["name"], true, topic.name);
+  if (auto r = f["reliability"].as_enum({"reliable", "best_effort"}, false)) {
+    topic.reliable = *r == "reliable";
+  }
+  if (auto d = f["depth"].as_int(false)) {
+    if (*d < 1 || *d > 1000) {
+      f["depth"].error("expected a keep-last depth from 1 to 1000, got " + std::to_string(*d));
+    } else {
+      topic.depth = static_cast<int>(*d);
+    }
+  }
+}
+
+// ROS 2's environment is the default for what the robot file leaves out: ROS_DOMAIN_ID, and
+// ROS_LOCALHOST_ONLY=1 for loopback only.
+void read_ros2_environment(const YamlField& f, Ros2Spec& ros2) {
+  if (const char* id = std::getenv("ROS_DOMAIN_ID"); id != nullptr && *id != '\0') {
+    char* end = nullptr;
+    const long v = std::strtol(id, &end, 10);
+    if (*end != '\0' || v < 0 || v > 232) {
+      f.error(std::string("environment variable ROS_DOMAIN_ID=\"") + id +
+              "\": expected a DDS domain id from 0 to 232");
+    } else {
+      ros2.domain_id = static_cast<int>(v);
+    }
+  }
+  if (const char* local = std::getenv("ROS_LOCALHOST_ONLY")) {
+    ros2.loopback_only = std::string(local) == "1";
+  }
+}
+
+void read_ros2(const YamlField& f, Ros2Spec& ros2) {
+  read_ros2_environment(f, ros2);
+  if (!f.defined()) return;
+  if (!f.expect_map()) return;
+  ros2.present = true;
+  loader::check_keys(f, {"domain_id", "namespace", "loopback_only", "topics", "frames", "joints",
+                         "odom_timeout_s", "stop_repeats", "publish_status"});
+  if (auto d = f["domain_id"].as_int(false)) {
+    // ROS 2's range: Cyclone maps a domain to UDP ports 7400 + 250 * id, past 65535 above 232.
+    if (*d < 0 || *d > 232) {
+      f["domain_id"].error("expected a DDS domain id from 0 to 232, got " + std::to_string(*d));
+    } else {
+      ros2.domain_id = static_cast<int>(*d);
+    }
+  }
+  if (f["namespace"].defined()) {
+    const YamlField ns = f["namespace"];
+    if (auto v = ns.as_string()) {
+      if (!v->empty()) {
+        if (v->front() != '/') {
+          ns.error("expected a namespace starting with '/' (or \"\"), got \"" + *v + "\"");
+        } else if (auto problem = ros2_name_problem(*v, true)) {
+          ns.error("expected a ROS 2 namespace; \"" + *v + "\" " + *problem);
+        } else {
+          ros2.ros2_namespace = *v;
+        }
+      }
+    }
+  }
+  if (auto v = f["loopback_only"].as_bool(false)) ros2.loopback_only = *v;
+  const YamlField topics = f["topics"];
+  if (topics.expect_map(false)) {
+    loader::check_keys(topics, {"cmd_vel", "odom", "scan", "joint_states", "pan_tilt_command"});
+    read_ros2_topic(topics["cmd_vel"], ros2.cmd_vel);
+    read_ros2_topic(topics["odom"], ros2.odom);
+    read_ros2_topic(topics["scan"], ros2.scan);
+    read_ros2_topic(topics["joint_states"], ros2.joint_states);
+    read_ros2_topic(topics["pan_tilt_command"], ros2.pan_tilt_command);
+  }
+  const YamlField frames = f["frames"];
+  if (frames.expect_map(false)) {
+    loader::check_keys(frames, {"odom", "base", "laser"});
+    read_ros2_name(frames["odom"], false, ros2.odom_frame);
+    read_ros2_name(frames["base"], false, ros2.base_frame);
+    read_ros2_name(frames["laser"], false, ros2.laser_frame);
+  }
+  const YamlField joints = f["joints"];
+  if (joints.expect_map(false)) {
+    loader::check_keys(joints, {"pan", "tilt"});
+    read_ros2_name(joints["pan"], false, ros2.pan_joint);
+    read_ros2_name(joints["tilt"], false, ros2.tilt_joint);
+    if (ros2.pan_joint == ros2.tilt_joint) {
+      joints.error("pan and tilt must be different joints, both are \"" + ros2.pan_joint + "\"");
+    }
+  }
+  if (auto v = read_number(f["odom_timeout_s"], false, Sign::positive)) ros2.odom_timeout_s = *v;
+  if (auto v = read_integer_at_least(f["stop_repeats"], 1)) {
+    ros2.stop_repeats = static_cast<int>(std::min<long long>(*v, 100));
+  }
+  if (auto v = f["publish_status"].as_bool(false)) ros2.publish_status = *v;
+}
+
 void read_instances(const YamlField& f, const std::vector<std::string>& roles,
                     std::map<std::string, PluginInstanceSpec>& out) {
   if (!f.expect_map(false)) return;
@@ -284,7 +427,7 @@ std::optional<LoadedRobot> read_robot(const YAML::Node& node, const std::string&
   }
   if (!root.expect_map()) return std::nullopt;
   loader::check_keys(root, {"robot", "base", "laser", "pan_tilt", "camera", "projector",
-                            "structured_light", "drivers", "services"});
+                            "structured_light", "ros2", "drivers", "services"});
 
   LoadedRobot robot;
   robot.file = file;
@@ -296,6 +439,7 @@ std::optional<LoadedRobot> read_robot(const YAML::Node& node, const std::string&
   read_projector(root["projector"], robot.projector);
   read_structured_light(root["structured_light"], robot.projector.intrinsics,
                         robot.structured_light);
+  read_ros2(root["ros2"], robot.ros2);
   read_instances(root["drivers"],
                  {"base", "laser", "pan_tilt", "depth_camera", "projector", "colour_camera"},
                  robot.drivers);

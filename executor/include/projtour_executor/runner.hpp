@@ -27,6 +27,10 @@ namespace projtour {
 struct RunOptions {
   std::filesystem::path mission;
   bool dry_run = false;
+  // A dry run whose base and laser are the robot's ros2_* drivers, over DDS, against
+  // projtour-sim-ros2 running the same mission, world and seed (the other drivers stay simulated
+  // here, following the bridge's true base pose).
+  bool ros2_bridge = false;
   std::optional<std::filesystem::path> world;
   std::optional<std::uint64_t> seed;
   std::optional<std::filesystem::path> out;  // default runs/<mission>-<time>/

@@ -75,6 +75,11 @@ class GroundTruth {
   // Points and (when given) the corners the robot observed in that camera's pixels.
   // nullopt in a world without unmapped objects or people.
   virtual std::optional<BuildingTruth> building_truth() const;
+  // A dry run whose base is simulated in another process (projtour-sim-ros2, behind ROS 2
+  // topics): the world's base stands where that simulator says it truly is (its true pose, the
+  // building's frame). Only the ros2 drivers' link to that simulator calls this, never a
+  // behaviour. Throws std::logic_error where the truth cannot follow (the default).
+  virtual void follow_true_base(const Pose2D& true_pose);
   // Where the people present now stand (map frame), for the tour picture.
   virtual std::vector<Eigen::Vector2d> people_positions() const;
   virtual void write_projection_views(

@@ -80,6 +80,41 @@ struct StructuredLightSpec {
   double max_residual_px = 1.5;  // larger RMS reprojection error in the projector: poor_fit
 };
 
+// The robot file's `ros2:` section: how the ros2_* drivers and the tour's status reach ROS 2 over
+// DDS. Absent (present = false), nothing in the run opens DDS. Names are ROS 2 names, relative
+// to `ros2_namespace` unless they start with '/'; on the wire a topic is "rt" + its full name.
+struct Ros2TopicSpec {
+  std::string name;
+  bool reliable = true;  // false: best effort, as ROS 2's "sensor data" profile
+  int depth = 10;        // keep-last history depth
+};
+
+struct Ros2Spec {
+  bool present = false;        // the section is written; the tour's status is published only then
+  int domain_id = 0;           // unless written, ROS_DOMAIN_ID (as ROS 2), else 0
+  std::string ros2_namespace;  // "" or "/ud1"
+  // Cyclone DDS on the loopback interface only, discovery by unicast to 127.0.0.1: simulation
+  // and tests, where nothing may leave the machine. Off: Cyclone's own choice (CYCLONEDDS_URI).
+  // Unless written, ROS_LOCALHOST_ONLY=1 turns it on (as ROS 2).
+  bool loopback_only = false;
+  Ros2TopicSpec cmd_vel{"cmd_vel", true, 10};
+  Ros2TopicSpec odom{"odom", true, 10};
+  Ros2TopicSpec scan{"scan", false, 5};
+  Ros2TopicSpec joint_states{"joint_states", true, 10};
+  // ros2_control's forward position controller: std_msgs/Float64MultiArray in joint order.
+  Ros2TopicSpec pan_tilt_command{"pan_tilt_controller/commands", true, 10};
+  std::string odom_frame = "odom";
+  std::string base_frame = "base_link";
+  std::string laser_frame;  // "" = whatever frame the scans name
+  std::string pan_joint = "pan_joint";
+  std::string tilt_joint = "tilt_joint";
+  // No odometry for this long (wall seconds on hardware) and the base driver stops the robot
+  // and fails: a robot never drives on odometry it no longer has.
+  double odom_timeout_s = 0.5;
+  int stop_repeats = 5;  // zero Twists sent on a safe stop, so one lost on the way does no harm
+  bool publish_status = true;  // the tour's state, pose, projector and results (README)
+};
+
 struct ProjectorSpec {
   MountSpec mount;
   PinholeModel intrinsics;
@@ -94,6 +129,7 @@ struct RobotSpec {
   CameraSpec camera;
   ProjectorSpec projector;
   StructuredLightSpec structured_light;
+  Ros2Spec ros2;
 };
 
 }  // namespace projtour

@@ -154,6 +154,9 @@ class SimWorld : public GroundTruth {
       const std::string& target_id,
       const std::array<Eigen::Vector2d, 4>& projector_px) const override;
   void set_visited_target(const std::string& target_id) override;
+  // The base of this world is another process's (projtour-sim-ros2): it stands where that one's
+  // does, and its own motion model stays idle (nobody here commands it).
+  void follow_true_base(const Pose2D& true_pose) override { set_true_base_pose(true_pose); }
   std::optional<BuildingTruth> building_truth() const override;
   std::vector<Eigen::Vector2d> people_positions() const override;
   // Beside each view, the colour camera's: noise-free at the structured light's exposure, with

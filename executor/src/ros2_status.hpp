@@ -1,0 +1,31 @@
+#pragma once
+// The tour's status on ROS 2 (DDS), under the robot's namespace, for a dashboard or a fleet
+// manager (README "ROS 2"): published when it changes, transient local so a late joiner sees
+// the present state at once.
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "projtour/context.hpp"
+#include "projtour_executor/executor.hpp"
+
+namespace projtour {
+
+class Ros2Status {
+ public:
+  // Opens the topics; throws ros2::DdsError when DDS cannot be reached (the run ends unmoved).
+  Ros2Status(const Executor& executor, const RunContext& run);
+  ~Ros2Status();
+  // Once a tick: writes what changed since the last call.
+  void publish();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Whether this run publishes its status: a robot file with a ros2 section (publish_status on),
+// on hardware or in a dry run over the bridge; never in a plain dry run.
+bool wants_ros2_status(const RunContext& run, bool ros2_bridge);
+
+}  // namespace projtour
