@@ -1,5 +1,7 @@
 #include "ros2_status.hpp"
 
+#include <algorithm>
+
 #include "projtour/blackboard_keys.hpp"
 #include "projtour_executor/json_io.hpp"
 #include "projtour_ros2/dds.hpp"
@@ -101,9 +103,12 @@ void Ros2Status::publish() {
   s.records_sent = records.size();
 }
 
-bool wants_ros2_status(const RunContext& run, bool ros2_bridge) {
+bool wants_ros2_status(const RunContext& run, const std::vector<std::string>& driver_kinds) {
   const Ros2Spec& spec = run.mission->robot.ros2;
-  return spec.present && spec.publish_status && (!run.dry_run || ros2_bridge);
+  const bool ros2_robot =
+      spec.present || std::any_of(driver_kinds.begin(), driver_kinds.end(),
+                                  [](const auto& k) { return k.rfind("ros2_", 0) == 0; });
+  return ros2_robot && spec.publish_status;
 }
 
 }  // namespace projtour

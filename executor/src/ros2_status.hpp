@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "projtour/context.hpp"
 #include "projtour_executor/executor.hpp"
@@ -24,8 +25,9 @@ class Ros2Status {
   std::unique_ptr<Impl> impl_;
 };
 
-// Whether this run publishes its status: a robot file with a ros2 section (publish_status on),
-// on hardware or in a dry run over the bridge; never in a plain dry run.
-bool wants_ros2_status(const RunContext& run, bool ros2_bridge);
+// Whether this run publishes its status: a ROS 2 robot (a robot file with a ros2 section, or a
+// ros2_* driver in the run, as in a dry run over the bridge) whose ros2.publish_status is on.
+// A plain dry run has only simulated drivers, so it never opens DDS.
+bool wants_ros2_status(const RunContext& run, const std::vector<std::string>& driver_kinds);
 
 }  // namespace projtour

@@ -454,7 +454,9 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
     publisher.emplace(*monitor, executor, run);
   }
   std::optional<Ros2Status> ros2_status;
-  if (wants_ros2_status(run, options.ros2_bridge)) {
+  std::vector<std::string> driver_kinds;
+  for (const auto& [interface, choice] : prepared->drivers) driver_kinds.push_back(choice.kind);
+  if (!run.dry_run || options.ros2_bridge ? wants_ros2_status(run, driver_kinds) : false) {
     try {
       ros2_status.emplace(executor, run);
     } catch (const std::exception& e) {

@@ -1,5 +1,7 @@
 // Robot files: the shipped example, values and defaults, and exact diagnostics for bad input.
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 
 #include "loader_fixture.hpp"
@@ -378,6 +380,149 @@ TEST_F(RobotLoader, EmptyRobotFile) {
   EXPECT_THAT(robot_errors("# nothing yet\n"),
               ElementsAre(dir + "/r.yaml:1:1: empty robot file: expected a mapping with robot, "
                                 "base, laser, pan_tilt, camera and projector"));
+}
+
+// The ros2 section (README "ROS 2"): ROS 2's names, QoS, domains; exact diagnostics.
+class RobotLoaderRos2 : public RobotLoader {
+ protected:
+  // The line the appended section's first line lands on.
+  int first_line() const {
+    const std::string robot = kRobot;
+    return static_cast<int>(std::count(robot.begin(), robot.end(), '\n')) + 1 +
+           (robot.back() == '\n' ? 0 : 1);
+  }
+  std::string at(int line_offset, int column) const {
+    return dir + "/r.yaml:" + std::to_string(first_line() + line_offset) + ":" +
+           std::to_string(column) + ": ";
+  }
+  std::string with(const std::string& section) const {
+    std::string robot = kRobot;
+    if (robot.back() != '\n') robot += "\n";
+    return robot + section;
+  }
+};
+
+TEST_F(RobotLoaderRos2, AbsentSectionIsRos2sDefaults) {
+  ::unsetenv("ROS_DOMAIN_ID");
+  ::unsetenv("ROS_LOCALHOST_ONLY");
+  Diagnostics diag;
+  const auto robot = load_robot(dir_path / "robot.yaml", diag);
+  ASSERT_TRUE(robot) << diag.format();
+  const Ros2Spec& r = robot->ros2;
+  EXPECT_FALSE(r.present);
+  EXPECT_EQ(r.domain_id, 0);
+  EXPECT_FALSE(r.loopback_only);
+  EXPECT_EQ(r.ros2_namespace, "");
+  EXPECT_EQ(r.cmd_vel.name, "cmd_vel");
+  EXPECT_TRUE(r.cmd_vel.reliable);
+  EXPECT_EQ(r.cmd_vel.depth, 10);
+  EXPECT_EQ(r.odom.name, "odom");
+  EXPECT_EQ(r.scan.name, "scan");
+  EXPECT_FALSE(r.scan.reliable);  // ROS 2's sensor-data profile
+  EXPECT_EQ(r.odom_frame, "odom");
+  EXPECT_EQ(r.base_frame, "base_link");
+}
+
+TEST_F(RobotLoaderRos2, EnvironmentIsTheDefaultAndTheFileWins) {
+  ::setenv("ROS_DOMAIN_ID", "42", 1);
+  ::setenv("ROS_LOCALHOST_ONLY", "1", 1);
+  Diagnostics diag;
+  auto robot = load_robot(write("r.yaml", with("ros2:\n  namespace: /ud1\n")), diag);
+  ASSERT_TRUE(robot) << diag.format();
+  EXPECT_TRUE(robot->ros2.present);
+  EXPECT_EQ(robot->ros2.domain_id, 42);
+  EXPECT_TRUE(robot->ros2.loopback_only);
+  robot =
+      load_robot(write("r.yaml", with("ros2:\n  domain_id: 7\n  loopback_only: false\n")), diag);
+  ASSERT_TRUE(robot) << diag.format();
+  EXPECT_EQ(robot->ros2.domain_id, 7);
+  EXPECT_FALSE(robot->ros2.loopback_only);
+  ::setenv("ROS_DOMAIN_ID", "lots", 1);
+  EXPECT_THAT(robot_errors(with("ros2:\n  namespace: /ud1\n")),
+              ElementsAre(at(1, 3) + "ros2: environment variable ROS_DOMAIN_ID=\"lots\": expected "
+                                     "a DDS domain id from 0 to 232"));
+  ::unsetenv("ROS_DOMAIN_ID");
+  ::unsetenv("ROS_LOCALHOST_ONLY");
+}
+
+TEST_F(RobotLoaderRos2, EveryFieldIsRead) {
+  ::unsetenv("ROS_DOMAIN_ID");
+  ::unsetenv("ROS_LOCALHOST_ONLY");
+  Diagnostics diag;
+  const auto robot = load_robot(
+      write("r.yaml",
+            with("ros2:\n"
+                 "  domain_id: 12\n"
+                 "  namespace: /ud1\n"
+                 "  loopback_only: true\n"
+                 "  topics:\n"
+                 "    cmd_vel: {name: base/cmd_vel, reliability: best_effort, depth: 1}\n"
+                 "    odom: /odometry/filtered\n"
+                 "    scan: {name: front_scan, reliability: reliable}\n"
+                 "    joint_states: head/joint_states\n"
+                 "    pan_tilt_command: head_controller/commands\n"
+                 "  frames: {odom: odom_combined, base: base_footprint, laser: laser_front}\n"
+                 "  joints: {pan: head_pan, tilt: head_tilt}\n"
+                 "  odom_timeout_s: 0.25\n"
+                 "  stop_repeats: 3\n"
+                 "  publish_status: false\n")),
+      diag);
+  ASSERT_TRUE(robot) << diag.format();
+  const Ros2Spec& r = robot->ros2;
+  EXPECT_EQ(r.domain_id, 12);
+  EXPECT_EQ(r.ros2_namespace, "/ud1");
+  EXPECT_TRUE(r.loopback_only);
+  EXPECT_EQ(r.cmd_vel.name, "base/cmd_vel");
+  EXPECT_FALSE(r.cmd_vel.reliable);
+  EXPECT_EQ(r.cmd_vel.depth, 1);
+  EXPECT_EQ(r.odom.name, "/odometry/filtered");
+  EXPECT_EQ(r.scan.name, "front_scan");
+  EXPECT_TRUE(r.scan.reliable);
+  EXPECT_EQ(r.joint_states.name, "head/joint_states");
+  EXPECT_EQ(r.pan_tilt_command.name, "head_controller/commands");
+  EXPECT_EQ(r.odom_frame, "odom_combined");
+  EXPECT_EQ(r.base_frame, "base_footprint");
+  EXPECT_EQ(r.laser_frame, "laser_front");
+  EXPECT_EQ(r.pan_joint, "head_pan");
+  EXPECT_EQ(r.tilt_joint, "head_tilt");
+  EXPECT_DOUBLE_EQ(r.odom_timeout_s, 0.25);
+  EXPECT_EQ(r.stop_repeats, 3);
+  EXPECT_FALSE(r.publish_status);
+}
+
+TEST_F(RobotLoaderRos2, BadValuesNameTheFieldAndWhatWasExpected) {
+  ::unsetenv("ROS_DOMAIN_ID");
+  EXPECT_THAT(
+      robot_errors(with("ros2:\n"
+                        "  domain_id: 233\n"
+                        "  namespace: ud1\n"
+                        "  topics:\n"
+                        "    cmd_vel: cmd vel\n"
+                        "    odom: {name: odom, depth: 0}\n"
+                        "    scan: {name: 2d/scan}\n"
+                        "    joint_states: joints//state\n"
+                        "    pan_tilt_comand: x\n"
+                        "  frames: {odom: /odom}\n"
+                        "  joints: {pan: head, tilt: head}\n"
+                        "  odom_timeout_s: 0\n")),
+      ElementsAre(at(1, 14) + "ros2.domain_id: expected a DDS domain id from 0 to 232, got 233",
+                  at(2, 14) + "ros2.namespace: expected a namespace starting with '/' (or \"\"), "
+                              "got \"ud1\"",
+                  at(8, 5) + "ros2.topics.pan_tilt_comand: unknown key \"pan_tilt_comand\"; did "
+                             "you mean \"pan_tilt_command\"?",
+                  at(4, 14) + "ros2.topics.cmd_vel: expected a ROS 2 name; \"cmd vel\" has the "
+                              "character ' ' (only letters, digits, '_' and '/')",
+                  at(5, 31) + "ros2.topics.odom.depth: expected a keep-last depth from 1 to 1000, "
+                              "got 0",
+                  at(6, 18) + "ros2.topics.scan.name: expected a ROS 2 name; \"2d/scan\" has a "
+                              "token starting with a digit (\"2d\")",
+                  at(7, 19) + "ros2.topics.joint_states: expected a ROS 2 name; "
+                              "\"joints//state\" has an empty token (a doubled or trailing '/')",
+                  at(9, 18) + "ros2.frames.odom: expected a ROS 2 name; \"/odom\" must not start "
+                              "with '/'",
+                  at(10, 11) + "ros2.joints: pan and tilt must be different joints, both are "
+                               "\"head\"",
+                  at(11, 19) + "ros2.odom_timeout_s: expected a number > 0, got 0"));
 }
 
 }  // namespace

@@ -116,7 +116,6 @@ bool Ros2Base::wait_for_odometry(double at_least_t_s, double timeout_s) {
 }
 
 void Ros2Base::update(double t_s) {
-  if (failed_) throw_failed();
   if (clock_) {
     clock_->write(rosgraph_msgs_msg_dds__Clock_{to_time(t_s)});
     if (!wait_for_odometry(t_s, spec_.odom_timeout_s)) {
@@ -147,6 +146,13 @@ void Ros2Base::update(double t_s) {
                   " s (timeout " + std::to_string(spec_.odom_timeout_s) + " s): " +
                   silence_reason(participant_, odom_.topic(),
                                  nav_msgs_msg_dds__Odometry__desc.m_typename, last_refusal_));
+  }
+  if (failed_) {
+    // Odometry is back: the base may move again, from what the machine commands next.
+    if (run_.log != nullptr)
+      run_.log->info("base ros2_base: odometry on " + odom_.topic() + " is back");
+    std::lock_guard<std::mutex> lock(mutex_);
+    failed_.reset();
   }
 }
 

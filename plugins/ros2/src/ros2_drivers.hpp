@@ -24,8 +24,9 @@ std::string silence_reason(const Participant& p, const std::string& dds_topic,
 
 // Publishes cmd_vel and reads odom. Stops the robot (zero Twists, ros2.stop_repeats of them) on
 // safe_stop and on destruction, and when no valid odometry arrived for ros2.odom_timeout_s: then
-// it throws DriverError from update() and from every later command, so the machine handles a
-// base it can no longer see (a robot never drives blind).
+// it throws DriverError from update() (the executor fails the active state with it, an outcome
+// the machine handles) and from every command until valid odometry is heard again, so a robot
+// never drives blind.
 //
 // In a dry run it is the tour's half of the simulator split across processes
 // (projtour-sim-ros2 runs the base and the laser): each update(t) publishes the mission time on
