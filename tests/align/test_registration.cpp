@@ -2,8 +2,10 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstring>
 
 #include <random>
+#include <thread>
 
 #include "projtour/registration.hpp"
 #include "rendered_scenes.hpp"
@@ -121,6 +123,46 @@ TEST_F(ProjectiveIcpTest, RecoversThePoseFromFiveCentimetresAndDegrees) {
     EXPECT_GT(r.inlier_fraction, 0.7);
     EXPECT_LT(r.rmse_mm, 3.0);
     EXPECT_GT(r.iterations, 0);
+  }
+}
+
+// The same frame and guess give the same pose bit for bit: again, on another thread (with its
+// own scratch buffers) and from the frame's crop as a cloud, which the frame overload builds
+// tile by tile where the cloud overload copies it.
+TEST_F(ProjectiveIcpTest, SameFrameGivesTheSamePoseBitForBit) {
+  const Eigen::Isometry3d truth = test::T_camera_model_facing(1.0, 0.25);
+  const Eigen::Vector3d offset(0.05, 0, 0);
+  Eigen::Isometry3d T_depth_model = truth;
+  T_depth_model.translation() -= offset;
+  const DepthFrame f = test::render_on_floor(*mesh_, T_depth_model, true, 17);
+  std::mt19937 rng(9);
+  for (int trial = 0; trial < 5; ++trial) {
+    const Eigen::Isometry3d guess = test::perturb(truth, 0.05, deg_to_rad(5.0), rng);
+    const RegistrationResult first = align_projective_icp(*model_, f, offset, guess, 0.1);
+    const RegistrationResult again = align_projective_icp(*model_, f, offset, guess, 0.1);
+    RegistrationResult threaded_result;
+    std::thread([&] {
+      threaded_result = align_projective_icp(*model_, f, offset, guess, 0.1);
+    }).join();
+    const OrganizedCloud crop =
+        crop_sphere(f, offset, guess.translation(), model_->bounding_radius_m() + 0.1);
+    const RegistrationResult from_cloud = align_projective_icp(*model_, crop, guess);
+    const RegistrationResult& threaded = threaded_result;
+    ASSERT_TRUE(first.converged) << trial;
+    EXPECT_LT(translation_distance_m(first.T_camera_model, truth) * 1000.0, 2.0) << trial;
+    for (const RegistrationResult* other : {&again, &threaded, &from_cloud}) {
+      EXPECT_EQ(std::memcmp(first.T_camera_model.matrix().data(),
+                            other->T_camera_model.matrix().data(), 16 * sizeof(double)),
+                0)
+          << trial;
+      EXPECT_EQ(first.inlier_fraction, other->inlier_fraction) << trial;
+      EXPECT_EQ(first.rmse_mm, other->rmse_mm) << trial;
+      EXPECT_EQ(first.iterations, other->iterations) << trial;
+    }
+    EXPECT_EQ(first.scene_points, again.scene_points);
+    // The frame overload reads only the crop's parts near the model.
+    EXPECT_GT(first.scene_points, 1000u);
+    EXPECT_LE(first.scene_points, crop.valid_count());
   }
 }
 

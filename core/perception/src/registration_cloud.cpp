@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "crop_internal.hpp"
 #include "projtour/geometry.hpp"
 #include "projtour/registration.hpp"
 
@@ -16,9 +17,7 @@ std::size_t OrganizedCloud::valid_count() const {
                                                 [](const Eigen::Vector3f& p) { return valid(p); }));
 }
 
-namespace {
-
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+namespace detail {
 
 // A camera's unit-depth rays, one per pixel, solved once: undistorting a pixel is an iterative
 // solve, and a camera's rays are the same in every frame. Kept per camera (its intrinsics and
@@ -46,9 +45,7 @@ class RayTable {
       }
     }
   }
-  const Eigen::Vector2f& at(int u, int v) const {
-    return rays_[static_cast<std::size_t>(v) * width_ + u];
-  }
+  const Eigen::Vector2f* data() const { return rays_.data(); }
 
  private:
   bool same_camera(const PinholeModel& k, int width, int height) const {
@@ -60,26 +57,25 @@ class RayTable {
   std::vector<Eigen::Vector2f> rays_;
 };
 
-// Turns pixels into unit-depth rays, with the distortion model only when the camera has one
-// (then from the camera's RayTable).
-class RayMaker {
- public:
-  RayMaker(const PinholeModel& k, int width, int height)
-      : k_(k),
-        table_(k.has_distortion() ? RayTable::of(k, width, height) : nullptr),
-        inv_fx_(1.0 / k.fx),
-        inv_fy_(1.0 / k.fy) {}
-  bool distorted() const { return table_ != nullptr; }
-  Eigen::Vector2f ray(int u, int v) const {
-    if (table_) return table_->at(u, v);
-    return {static_cast<float>((u - k_.cx) * inv_fx_), static_cast<float>((v - k_.cy) * inv_fy_)};
+WindowRays::WindowRays(const DepthFrame& frame, const SphereCrop& crop)
+    : u0_(crop.u_lo), v0_(crop.v_lo) {
+  const PinholeModel& k = frame.intrinsics;
+  if (k.has_distortion()) {
+    table_owner_ = RayTable::of(k, frame.width, frame.height);
+    table_ = table_owner_->data();
+    table_width_ = frame.width;
+    return;
   }
-
- private:
-  const PinholeModel& k_;
-  std::shared_ptr<const RayTable> table_;
-  double inv_fx_, inv_fy_;
-};
+  const double inv_fx = 1.0 / k.fx, inv_fy = 1.0 / k.fy;
+  column_x_.resize(static_cast<std::size_t>(std::max(0, crop.width())));
+  row_y_.resize(static_cast<std::size_t>(std::max(0, crop.height())));
+  for (std::size_t i = 0; i < column_x_.size(); ++i) {
+    column_x_[i] = static_cast<float>((crop.u_lo + static_cast<int>(i) - k.cx) * inv_fx);
+  }
+  for (std::size_t j = 0; j < row_y_.size(); ++j) {
+    row_y_[j] = static_cast<float>((crop.v_lo + static_cast<int>(j) - k.cy) * inv_fy);
+  }
+}
 
 void check_frame(const DepthFrame& frame) {
   if (frame.width <= 0 || frame.height <= 0 ||
@@ -91,48 +87,13 @@ void check_frame(const DepthFrame& frame) {
   }
 }
 
-OrganizedCloud empty_window(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
-                            int u0, int v0, int width, int height) {
-  OrganizedCloud cloud;
-  cloud.intrinsics = frame.intrinsics;
-  cloud.intrinsics.width = frame.width;
-  cloud.intrinsics.height = frame.height;
-  cloud.depth_to_color_m = depth_to_color_m.cast<float>();
-  cloud.u0 = u0;
-  cloud.v0 = v0;
-  cloud.width = width;
-  cloud.height = height;
-  cloud.points.assign(static_cast<std::size_t>(width) * height, Eigen::Vector3f::Constant(kNaN));
-  return cloud;
-}
-
-}  // namespace
-
-OrganizedCloud organized_cloud(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
-                               double min_range_m, double max_range_m) {
-  check_frame(frame);
-  OrganizedCloud cloud = empty_window(frame, depth_to_color_m, 0, 0, frame.width, frame.height);
-  const RayMaker rays(frame.intrinsics, frame.width, frame.height);
-  const float min_z = static_cast<float>(min_range_m), max_z = static_cast<float>(max_range_m);
-  for (int v = 0; v < frame.height; ++v) {
-    for (int u = 0; u < frame.width; ++u) {
-      const std::uint16_t d = frame.at(u, v);
-      const float z = d * 0.001f;
-      if (d == 0 || z < min_z || z > max_z) continue;
-      const Eigen::Vector2f r = rays.ray(u, v);
-      cloud.points[static_cast<std::size_t>(v) * frame.width + u] =
-          Eigen::Vector3f(r.x() * z, r.y() * z, z) + cloud.depth_to_color_m;
-    }
-  }
-  return cloud;
-}
-
-OrganizedCloud crop_sphere(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
-                           const Eigen::Vector3d& centre_camera, double radius_m) {
-  check_frame(frame);
+SphereCrop sphere_crop(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
+                       const Eigen::Vector3d& centre_camera, double radius_m) {
+  SphereCrop crop;
+  crop.depth_to_color_m = depth_to_color_m.cast<float>();
   const Eigen::Vector3d c = centre_camera - depth_to_color_m;  // in the depth optical frame
   const double r = radius_m;
-  if (!(r > 0.0) || c.z() + r <= 0.0) return empty_window(frame, depth_to_color_m, 0, 0, 0, 0);
+  if (!(r > 0.0) || c.z() + r <= 0.0) return crop;
 
   // The window: the bounding box of the sphere's image. Along each image axis the extremes of
   // x/z (y/z) are the tangents from the camera to the sphere's disc in the xz (yz) plane; the
@@ -170,34 +131,126 @@ OrganizedCloud crop_sphere(const DepthFrame& frame, const Eigen::Vector3d& depth
     v_lo = std::clamp(static_cast<int>(std::floor(pv_lo)), 0, frame.height);
     v_hi = std::clamp(static_cast<int>(std::ceil(pv_hi)) + 1, 0, frame.height);
   }
-  const int w = std::max(0, u_hi - u_lo), h = std::max(0, v_hi - v_lo);
-  OrganizedCloud cloud = empty_window(frame, depth_to_color_m, u_lo, v_lo, w, h);
+  crop.u_lo = u_lo;
+  crop.v_lo = v_lo;
+  crop.u_hi = std::max(u_lo, u_hi);
+  crop.v_hi = std::max(v_lo, v_hi);
+  crop.centre_depth = c.cast<float>();
+  crop.r2 = static_cast<float>(r * r);
+  crop.z_min = static_cast<float>(std::max(0.0, z_near));
+  crop.z_max = static_cast<float>(z_far);
+  return crop;
+}
 
-  const RayMaker rays(frame.intrinsics, frame.width, frame.height);
-  const Eigen::Vector3f cf = c.cast<float>();
-  const float r2 = static_cast<float>(r * r);
-  const float z_min = static_cast<float>(std::max(0.0, z_near)), z_max = static_cast<float>(z_far);
-  // Without distortion a pixel's ray is its column's x and its row's y: the window's columns
-  // are solved once, not once per pixel (the same floats either way).
-  std::vector<float> column_x;
-  if (!rays.distorted()) {
-    column_x.resize(static_cast<std::size_t>(w));
-    for (int i = 0; i < w; ++i) column_x[i] = rays.ray(u_lo + i, v_lo).x();
+namespace {
+
+// crop_point without distortion, on its own so that the planes are known not to overlap and the
+// compiler turns it into vector instructions.
+std::size_t crop_row_pinhole(std::size_t n, const std::uint16_t* __restrict__ depth,
+                             const float* __restrict__ ray_x, float ray_y, const SphereCrop& crop,
+                             float* __restrict__ x, float* __restrict__ y, float* __restrict__ z) {
+  const float c0 = crop.centre_depth.x(), c1 = crop.centre_depth.y(), c2 = crop.centre_depth.z();
+  const float o0 = crop.depth_to_color_m.x(), o1 = crop.depth_to_color_m.y(),
+              o2 = crop.depth_to_color_m.z();
+  const float z_min = crop.z_min, z_max = crop.z_max, r2 = crop.r2;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  int valid = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const float d = depth[k] * 0.001f;
+    const float px = ray_x[k] * d, py = ray_y * d;
+    const float ex = px - c0, ey = py - c1, ez = d - c2;
+    const bool in =
+        (depth[k] != 0) & (d >= z_min) & (d <= z_max) & (ex * ex + ey * ey + ez * ez <= r2);
+    // Computed for every pixel and then chosen, so the loop has no branch to vectorize around.
+    const float qx = px + o0, qy = py + o1, qz = d + o2;
+    x[k] = in ? qx : nan;
+    y[k] = in ? qy : nan;
+    z[k] = in ? qz : nan;
+    valid += in;
   }
-  for (int j = 0; j < h; ++j) {
-    const int v = v_lo + j;
-    const std::uint16_t* depth = &frame.depth_mm[static_cast<std::size_t>(v) * frame.width];
-    Eigen::Vector3f* out = &cloud.points[static_cast<std::size_t>(j) * w];
-    const float row_y = rays.ray(u_lo, v).y();
-    for (int i = 0; i < w; ++i) {
-      const int u = u_lo + i;
-      const float z = depth[u] * 0.001f;
-      if (depth[u] == 0 || z < z_min || z > z_max) continue;  // cheap rejection before the ray
-      const Eigen::Vector2f ray =
-          column_x.empty() ? rays.ray(u, v) : Eigen::Vector2f(column_x[i], row_y);
-      const Eigen::Vector3f p(ray.x() * z, ray.y() * z, z);
-      if ((p - cf).squaredNorm() <= r2) out[i] = p + cloud.depth_to_color_m;
+  return static_cast<std::size_t>(valid);
+}
+
+}  // namespace
+
+std::size_t crop_row(const DepthFrame& frame, const SphereCrop& crop, const WindowRays& rays, int v,
+                     int u_lo, int u_hi, float* x, float* y, float* z) {
+  const std::uint16_t* depth = &frame.depth_mm[static_cast<std::size_t>(v) * frame.width];
+  if (rays.column_x() != nullptr) {
+    return crop_row_pinhole(static_cast<std::size_t>(u_hi - u_lo), depth + u_lo,
+                            rays.column_x() + (u_lo - crop.u_lo), rays.row_y(v), crop, x, y, z);
+  }
+  std::size_t valid = 0;
+  for (int u = u_lo; u < u_hi; ++u) {
+    const Eigen::Vector3f p = crop_point(depth[u], rays.at(u, v), crop);
+    const int k = u - u_lo;
+    x[k] = p.x(), y[k] = p.y(), z[k] = p.z();
+    valid += p.z() == p.z();
+  }
+  return valid;
+}
+
+}  // namespace detail
+
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+OrganizedCloud empty_window(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
+                            int u0, int v0, int width, int height) {
+  OrganizedCloud cloud;
+  cloud.intrinsics = frame.intrinsics;
+  cloud.intrinsics.width = frame.width;
+  cloud.intrinsics.height = frame.height;
+  cloud.depth_to_color_m = depth_to_color_m.cast<float>();
+  cloud.u0 = u0;
+  cloud.v0 = v0;
+  cloud.width = width;
+  cloud.height = height;
+  cloud.points.assign(static_cast<std::size_t>(width) * height, Eigen::Vector3f::Constant(kNaN));
+  return cloud;
+}
+
+}  // namespace
+
+OrganizedCloud organized_cloud(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
+                               double min_range_m, double max_range_m) {
+  detail::check_frame(frame);
+  OrganizedCloud cloud = empty_window(frame, depth_to_color_m, 0, 0, frame.width, frame.height);
+  detail::SphereCrop whole;
+  whole.u_hi = frame.width;
+  whole.v_hi = frame.height;
+  const detail::WindowRays rays(frame, whole);
+  const float min_z = static_cast<float>(min_range_m), max_z = static_cast<float>(max_range_m);
+  for (int v = 0; v < frame.height; ++v) {
+    for (int u = 0; u < frame.width; ++u) {
+      const std::uint16_t d = frame.at(u, v);
+      const float z = d * 0.001f;
+      if (d == 0 || z < min_z || z > max_z) continue;
+      const Eigen::Vector2f r = rays.at(u, v);
+      cloud.points[static_cast<std::size_t>(v) * frame.width + u] =
+          Eigen::Vector3f(r.x() * z, r.y() * z, z) + cloud.depth_to_color_m;
     }
+  }
+  return cloud;
+}
+
+OrganizedCloud crop_sphere(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
+                           const Eigen::Vector3d& centre_camera, double radius_m) {
+  detail::check_frame(frame);
+  const detail::SphereCrop crop =
+      detail::sphere_crop(frame, depth_to_color_m, centre_camera, radius_m);
+  const int w = crop.width(), h = crop.height();
+  OrganizedCloud cloud = empty_window(frame, depth_to_color_m, crop.u_lo, crop.v_lo, w, h);
+  if (w == 0 || h == 0) return cloud;
+  // Row by row through the planes registration reads, so both crop the same points.
+  const detail::WindowRays rays(frame, crop);
+  std::vector<float> planes(3 * static_cast<std::size_t>(w));
+  for (int j = 0; j < h; ++j) {
+    detail::crop_row(frame, crop, rays, crop.v_lo + j, crop.u_lo, crop.u_hi, planes.data(),
+                     planes.data() + w, planes.data() + 2 * w);
+    Eigen::Vector3f* out = &cloud.points[static_cast<std::size_t>(j) * w];
+    for (int i = 0; i < w; ++i) out[i] = {planes[i], planes[w + i], planes[2 * w + i]};
   }
   return cloud;
 }

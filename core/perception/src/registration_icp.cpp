@@ -5,11 +5,16 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <numeric>
+#include <optional>
 #include <random>
 
 #include <stdexcept>
+#include <string>
+#include <type_traits>
 
+#include "crop_internal.hpp"
 #include "projtour/geometry.hpp"
 #include "projtour/registration.hpp"
 
@@ -45,6 +50,14 @@ IcpModel::IcpModel(const ModelCloud& cloud, unsigned seed)
   if (bounding_radius_m_ <= 0.0f) {
     for (const auto& p : points_) bounding_radius_m_ = std::max(bounding_radius_m_, p.norm());
   }
+  const std::size_t n = points_.size();
+  columns_.resize(6 * n);
+  for (std::size_t k = 0; k < n; ++k) {
+    for (int c = 0; c < 3; ++c) {
+      columns_[c * n + k] = points_[k][c];
+      columns_[(3 + c) * n + k] = normals_[k][c];
+    }
+  }
 }
 
 namespace {
@@ -52,121 +65,429 @@ namespace {
 using Clock = std::chrono::steady_clock;
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-// One level of the scene pyramid: a window of the image at 1 / 2^level resolution.
-// Level 0 borrows the scene's points; coarser levels own theirs.
+// Buffers an alignment fills anew and throws away: kept per thread from one alignment to the
+// next, so the tracking loop allocates (and the kernel maps fresh pages) only on its first frames.
+// Every element is written before it is read, so nothing carries over between alignments.
+class Scratch {
+ public:
+  template <typename T>
+  T* take(std::size_t n) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    const std::size_t bytes = (n * sizeof(T) + 63) & ~std::size_t{63};
+    if (used_ == blocks_.size()) blocks_.emplace_back();
+    Block& block = blocks_[used_++];
+    if (block.bytes < bytes) {
+      // Grown with room to spare: the same call takes somewhat more on another frame.
+      block.bytes = bytes + bytes / 2;
+      block.data.reset(new std::max_align_t[block.bytes / sizeof(std::max_align_t) + 1]);
+    }
+    return reinterpret_cast<T*>(block.data.get());
+  }
+
+  // One per alignment on the thread's stack of them (an alignment inside a visit callback gets
+  // its own).
+  class Lease {
+   public:
+    Lease() {
+      if (pool().empty()) pool().push_back(std::make_unique<Scratch>());
+      scratch_ = std::move(pool().back());
+      pool().pop_back();
+      scratch_->used_ = 0;
+    }
+    ~Lease() { pool().push_back(std::move(scratch_)); }
+    Lease(const Lease&) = delete;
+    Lease& operator=(const Lease&) = delete;
+    Scratch& operator*() { return *scratch_; }
+
+   private:
+    std::unique_ptr<Scratch> scratch_;
+  };
+
+ private:
+  static std::vector<std::unique_ptr<Scratch>>& pool() {
+    thread_local std::vector<std::unique_ptr<Scratch>> scratches;
+    return scratches;
+  }
+  struct Block {
+    std::unique_ptr<std::max_align_t[]> data;
+    std::size_t bytes = 0;
+  };
+  std::vector<Block> blocks_;
+  std::size_t used_ = 0;
+};
+
+// downsample (below) for n blocks whose children all lie in the finer window: rows r0 and r1
+// of the finer planes from the blocks' first child. Branch-free, so the compiler vectorizes it;
+// the children's sums skip those out of the nearest's depth band by adding zero, which leaves
+// the sums as downsample's.
+void downsample_row(std::size_t n, const float* __restrict__ x0, const float* __restrict__ y0,
+                    const float* __restrict__ z0, const float* __restrict__ x1,
+                    const float* __restrict__ y1, const float* __restrict__ z1,
+                    float* __restrict__ x, float* __restrict__ y, float* __restrict__ z) {
+  const float inf = std::numeric_limits<float>::infinity();
+  for (std::size_t k = 0; k < n; ++k) {
+    const float za = z0[2 * k], zb = z0[2 * k + 1], zc = z1[2 * k], zd = z1[2 * k + 1];
+    // NaN compares false: a missing child is never the nearest, nor taken.
+    float z_min = za < inf ? za : inf;
+    z_min = zb < z_min ? zb : z_min;
+    z_min = zc < z_min ? zc : z_min;
+    z_min = zd < z_min ? zd : z_min;
+    const float z_max = z_min * 1.02f;
+    const bool ta = za <= z_max, tb = zb <= z_max, tc = zc <= z_max, td = zd <= z_max;
+    // Loaded whether taken or not: a load under a condition would keep the loop's branches.
+    const float xa = x0[2 * k], xb = x0[2 * k + 1], xc = x1[2 * k], xd = x1[2 * k + 1];
+    const float ya = y0[2 * k], yb = y0[2 * k + 1], yc = y1[2 * k], yd = y1[2 * k + 1];
+    const float sx =
+        (((0.0f + (ta ? xa : 0.0f)) + (tb ? xb : 0.0f)) + (tc ? xc : 0.0f)) + (td ? xd : 0.0f);
+    const float sy =
+        (((0.0f + (ta ? ya : 0.0f)) + (tb ? yb : 0.0f)) + (tc ? yc : 0.0f)) + (td ? yd : 0.0f);
+    const float sz =
+        (((0.0f + (ta ? za : 0.0f)) + (tb ? zb : 0.0f)) + (tc ? zc : 0.0f)) + (td ? zd : 0.0f);
+    const float count =
+        (ta ? 1.0f : 0.0f) + (tb ? 1.0f : 0.0f) + (tc ? 1.0f : 0.0f) + (td ? 1.0f : 0.0f);
+    const float mx = sx / count, my = sy / count, mz = sz / count;
+    const bool any = count > 0.0f;
+    x[k] = any ? mx : kNaN;
+    y[k] = any ? my : kNaN;
+    z[k] = any ? mz : kNaN;
+  }
+}
+
+class ScenePyramid;
+
+// One level of the scene pyramid: a window of the image at 1 / 2^level resolution, as three
+// planes of floats (x, y, z; NaN where there is no point). Its pixels are readable once
+// ensure'd: the pyramid fills them in tiles on first use.
 struct Level {
   int u0 = 0, v0 = 0, width = 0, height = 0;
   int scale = 1;
-  std::vector<Eigen::Vector3f> storage;
-  const Eigen::Vector3f* points = nullptr;
-  const Eigen::Vector3f& at(int i, int j) const {
-    return points[static_cast<std::size_t>(j) * width + i];
+  int index = 0;  // in its pyramid
+  float* x = nullptr;
+  float* y = nullptr;
+  float* z = nullptr;
+  ScenePyramid* pyramid = nullptr;
+  std::size_t cell(int i, int j) const { return static_cast<std::size_t>(j) * width + i; }
+  bool valid(int i, int j) const {
+    const float d = z[cell(i, j)];
+    return d == d;
+  }
+  Eigen::Vector3f at(int i, int j) const {
+    const std::size_t c = cell(i, j);
+    return {x[c], y[c], z[c]};
+  }
+  bool contains(int i, int j) const { return i >= 0 && j >= 0 && i < width && j < height; }
+  // Makes pixels [i_lo, i_hi] x [j_lo, j_hi] (clipped to the window) readable.
+  inline void ensure(int i_lo, int i_hi, int j_lo, int j_hi) const;
+  // The same for one pixel inside the window.
+  inline void ensure(int i, int j) const;
+};
+
+// The scene at every level the schedule uses, built in square tiles of the full-resolution
+// image (aligned to multiples of their size, so each tile holds whole blocks of every level) the
+// first time the registration reads one. A target fills a fraction of its crop's window: the
+// tiles its model points never land near (nor their association windows and normals) are never
+// read from the depth image, cropped nor averaged. A pixel's value depends neither on which
+// tiles were built nor in which order, so neither does the pose.
+class ScenePyramid {
+ public:
+  // Level 0 copied from a cloud, tile by tile.
+  ScenePyramid(const OrganizedCloud& scene, int levels, Scratch& scratch) : cloud_(&scene) {
+    init(scene.u0, scene.v0, scene.width, scene.height, levels, scratch);
+  }
+  // Level 0 cropped from the frame as crop_sphere crops it, tile by tile.
+  ScenePyramid(const DepthFrame& frame, const detail::SphereCrop& crop, int levels,
+               Scratch& scratch)
+      : frame_(&frame), crop_(crop), rays_(std::in_place, frame, crop) {
+    init(crop.u_lo, crop.v_lo, crop.width(), crop.height(), levels, scratch);
+  }
+  ScenePyramid(const ScenePyramid&) = delete;
+  ScenePyramid& operator=(const ScenePyramid&) = delete;
+
+  const Level& level(int l) const { return levels_[l]; }
+  int levels() const { return static_cast<int>(levels_.size()); }
+  // Valid full-resolution points in the tiles built so far.
+  std::size_t level0_valid() const { return level0_valid_; }
+
+  // ensure for one pixel inside level l's window.
+  void ensure_pixel(int l, int i, int j) {
+    const Level& level = levels_[l];
+    const int shift = kTileShift - l;
+    const int ti = ((level.u0 + i) >> shift) - tile_u0_, tj = ((level.v0 + j) >> shift) - tile_v0_;
+    unsigned char& built = built_[static_cast<std::size_t>(tj) * tiles_wide_ + ti];
+    if (!built) build_tile(ti, tj), built = 1;
+  }
+
+  void ensure(int l, int i_lo, int i_hi, int j_lo, int j_hi) {
+    const Level& level = levels_[l];
+    i_lo = std::max(i_lo, 0), j_lo = std::max(j_lo, 0);
+    i_hi = std::min(i_hi, level.width - 1), j_hi = std::min(j_hi, level.height - 1);
+    if (i_lo > i_hi || j_lo > j_hi) return;
+    const int shift = kTileShift - l;
+    const int ti_lo = ((level.u0 + i_lo) >> shift) - tile_u0_;
+    const int ti_hi = ((level.u0 + i_hi) >> shift) - tile_u0_;
+    const int tj_lo = ((level.v0 + j_lo) >> shift) - tile_v0_;
+    const int tj_hi = ((level.v0 + j_hi) >> shift) - tile_v0_;
+    for (int tj = tj_lo; tj <= tj_hi; ++tj) {
+      unsigned char* built = built_ + static_cast<std::size_t>(tj) * tiles_wide_;
+      for (int ti = ti_lo; ti <= ti_hi; ++ti) {
+        if (!built[ti]) build_tile(ti, tj), built[ti] = 1;
+      }
+    }
+  }
+
+  // Tiles of 16 full-resolution pixels: whole blocks up to level 4, and about as wide as a
+  // coarse association window, so a window seldom spans more than four.
+  static constexpr int kTileShift = 4;
+  static constexpr int kMaxLevels = kTileShift + 1;
+
+ private:
+  void init(int u0, int v0, int width, int height, int levels, Scratch& scratch) {
+    if (levels > kMaxLevels) {
+      throw std::invalid_argument("align_projective_icp: pyramid_level above " +
+                                  std::to_string(kMaxLevels - 1));
+    }
+    levels_.resize(levels);
+    for (int l = 0; l < levels; ++l) {
+      Level& level = levels_[l];
+      if (l == 0) {
+        level.u0 = u0, level.v0 = v0, level.width = width, level.height = height;
+      } else {
+        const Level& fine = levels_[l - 1];
+        level.scale = fine.scale * 2;
+        level.u0 = fine.u0 >> 1;
+        level.v0 = fine.v0 >> 1;
+        level.width = std::max(0, ((fine.u0 + fine.width + 1) >> 1) - level.u0);
+        level.height = std::max(0, ((fine.v0 + fine.height + 1) >> 1) - level.v0);
+      }
+      level.index = l;
+      level.pyramid = this;
+      const std::size_t cells = static_cast<std::size_t>(level.width) * level.height;
+      level.x = scratch.take<float>(cells);
+      level.y = scratch.take<float>(cells);
+      level.z = scratch.take<float>(cells);
+    }
+    tile_u0_ = u0 >> kTileShift;
+    tile_v0_ = v0 >> kTileShift;
+    tiles_wide_ = width > 0 ? ((u0 + width - 1) >> kTileShift) - tile_u0_ + 1 : 0;
+    const int tiles_high = height > 0 ? ((v0 + height - 1) >> kTileShift) - tile_v0_ + 1 : 0;
+    const std::size_t tiles = static_cast<std::size_t>(tiles_wide_) * tiles_high;
+    built_ = scratch.take<unsigned char>(tiles);
+    std::fill(built_, built_ + tiles, 0);
+  }
+
+  void build_tile(int ti, int tj) {
+    const int U0 = (ti + tile_u0_) << kTileShift, V0 = (tj + tile_v0_) << kTileShift;
+    {
+      const Level& base = levels_[0];
+      const int u_lo = std::max(U0, base.u0), u_hi = std::min(U0 + kTile, base.u0 + base.width);
+      const int v_lo = std::max(V0, base.v0), v_hi = std::min(V0 + kTile, base.v0 + base.height);
+      for (int v = v_lo; v < v_hi; ++v) {
+        const std::size_t row = base.cell(u_lo - base.u0, v - base.v0);
+        if (frame_ != nullptr) {
+          level0_valid_ += detail::crop_row(*frame_, crop_, *rays_, v, u_lo, u_hi, base.x + row,
+                                            base.y + row, base.z + row);
+        } else {
+          const Eigen::Vector3f* in = &cloud_->at(u_lo - base.u0, v - base.v0);
+          for (int k = 0; k < u_hi - u_lo; ++k) {
+            base.x[row + k] = in[k].x(), base.y[row + k] = in[k].y(), base.z[row + k] = in[k].z();
+            level0_valid_ += OrganizedCloud::valid(in[k]);
+          }
+        }
+      }
+    }
+    for (int l = 1; l < levels(); ++l) {
+      const Level& fine = levels_[l - 1];
+      const Level& coarse = levels_[l];
+      const int u_lo = std::max(U0 >> l, coarse.u0);
+      const int u_hi = std::min((U0 + kTile) >> l, coarse.u0 + coarse.width);
+      const int v_lo = std::max(V0 >> l, coarse.v0);
+      const int v_hi = std::min((V0 + kTile) >> l, coarse.v0 + coarse.height);
+      for (int v = v_lo; v < v_hi; ++v) {
+        const int fj = 2 * v - fine.v0;
+        if (fj < 0 || fj + 1 >= fine.height) {
+          for (int u = u_lo; u < u_hi; ++u) downsample(fine, coarse, u, v);
+          continue;
+        }
+        // Blocks whose four children lie in the finer window, in one vectorized pass; those on
+        // the window's left or right edge one by one.
+        int u = u_lo;
+        for (; u < u_hi && 2 * u - fine.u0 < 0; ++u) downsample(fine, coarse, u, v);
+        int u_end = u_hi;
+        while (u_end > u && 2 * (u_end - 1) - fine.u0 + 1 >= fine.width) --u_end;
+        const std::size_t f0 = fine.cell(2 * u - fine.u0, fj), f1 = f0 + fine.width;
+        const std::size_t out = coarse.cell(u - coarse.u0, v - coarse.v0);
+        downsample_row(static_cast<std::size_t>(u_end - u), fine.x + f0, fine.y + f0, fine.z + f0,
+                       fine.x + f1, fine.y + f1, fine.z + f1, coarse.x + out, coarse.y + out,
+                       coarse.z + out);
+        for (u = u_end; u < u_hi; ++u) downsample(fine, coarse, u, v);
+      }
+    }
+  }
+
+  // A coarser pixel averages the finer 2x2 block's points near its nearest one, so silhouette
+  // edges stay sharp instead of blending foreground and background. The children count in row
+  // order; those missing or outside the finer window are no points.
+  static void downsample(const Level& fine, const Level& coarse, int u, int v) {
+    const int fi = 2 * u - fine.u0, fj = 2 * v - fine.v0;
+    float cx[4], cy[4], cz[4];
+    int n = 0;
+    for (int b = fj; b <= fj + 1; ++b) {
+      for (int a = fi; a <= fi + 1; ++a) {
+        if (!fine.contains(a, b)) continue;
+        const std::size_t c = fine.cell(a, b);
+        if (!(fine.z[c] == fine.z[c])) continue;
+        cx[n] = fine.x[c], cy[n] = fine.y[c], cz[n] = fine.z[c];
+        ++n;
+      }
+    }
+    const std::size_t out = coarse.cell(u - coarse.u0, v - coarse.v0);
+    if (n == 0) {
+      coarse.x[out] = coarse.y[out] = coarse.z[out] = kNaN;
+      return;
+    }
+    float z_min = cz[0];
+    for (int k = 1; k < n; ++k) z_min = std::min(z_min, cz[k]);
+    const float z_max = z_min * 1.02f;
+    float sx = 0.0f, sy = 0.0f, sz = 0.0f;
+    int count = 0;
+    for (int k = 0; k < n; ++k) {
+      if (cz[k] <= z_max) sx += cx[k], sy += cy[k], sz += cz[k], ++count;
+    }
+    const float f = static_cast<float>(count);
+    coarse.x[out] = sx / f, coarse.y[out] = sy / f, coarse.z[out] = sz / f;
+  }
+
+  static constexpr int kTile = 1 << kTileShift;
+  const OrganizedCloud* cloud_ = nullptr;
+  const DepthFrame* frame_ = nullptr;
+  detail::SphereCrop crop_;
+  std::optional<detail::WindowRays> rays_;
+  std::size_t level0_valid_ = 0;
+  std::vector<Level> levels_;
+  int tile_u0_ = 0, tile_v0_ = 0, tiles_wide_ = 0;
+  unsigned char* built_ = nullptr;
+};
+
+void Level::ensure(int i_lo, int i_hi, int j_lo, int j_hi) const {
+  pyramid->ensure(index, i_lo, i_hi, j_lo, j_hi);
+}
+
+void Level::ensure(int i, int j) const {
+  pyramid->ensure_pixel(index, i, j);
+}
+
+// The model's first n points and normals in the camera frame, as planes, with where each lands
+// in the depth image: u, v in full-resolution pixels shifted by half a pixel (so truncating them
+// at any level gives the pixel's index), and `seen` for those facing the camera in front of it
+// (only the side facing the camera can be seen; the back side would otherwise match the support
+// plane or the far surface of the target itself).
+struct MovedModel {
+  std::size_t n = 0;
+  float *px, *py, *pz, *nx, *ny, *nz, *u, *v;
+  int* seen;
+  MovedModel(std::size_t capacity, Scratch& scratch) {
+    for (float** plane : {&px, &py, &pz, &nx, &ny, &nz, &u, &v}) {
+      *plane = scratch.take<float>(capacity);
+    }
+    seen = scratch.take<int>(capacity);
+  }
+  Eigen::Vector3f p(std::size_t k) const { return {px[k], py[k], pz[k]}; }
+  Eigen::Vector3f normal(std::size_t k) const { return {nx[k], ny[k], nz[k]}; }
+  // The pixel at `level`; false outside its window.
+  bool pixel(std::size_t k, const Level& level, int& i, int& j) const {
+    const float inv_s = 1.0f / static_cast<float>(level.scale);
+    i = static_cast<int>(u[k] * inv_s) - level.u0;
+    j = static_cast<int>(v[k] * inv_s) - level.v0;
+    return level.contains(i, j);
   }
 };
 
-Level borrow(const OrganizedCloud& scene) {
-  Level level;
-  level.u0 = scene.u0;
-  level.v0 = scene.v0;
-  level.width = scene.width;
-  level.height = scene.height;
-  level.points = scene.points.data();
-  return level;
-}
+// A pixel beyond this is off any image; it keeps the conversion to int in range.
+constexpr float kFarPixel = 1e7f;
 
-// Each coarser pixel averages the finer 2x2 block's points near its nearest one, so silhouette
-// edges stay sharp instead of blending foreground and background. `fine_valid` (optional)
-// receives the number of valid fine points.
-Level downsample(const Level& fine, std::size_t* fine_valid = nullptr) {
-  Level coarse;
-  coarse.scale = fine.scale * 2;
-  coarse.u0 = fine.u0 >> 1;
-  coarse.v0 = fine.v0 >> 1;
-  coarse.width = std::max(0, ((fine.u0 + fine.width + 1) >> 1) - coarse.u0);
-  coarse.height = std::max(0, ((fine.v0 + fine.height + 1) >> 1) - coarse.v0);
-  coarse.storage.resize(static_cast<std::size_t>(coarse.width) * coarse.height);
-  coarse.points = coarse.storage.data();
-  // Fine pixel of the block's top-left child, relative to the fine window (may be -1 when the
-  // fine window starts on an odd pixel).
-  const int fi0 = 2 * coarse.u0 - fine.u0, fj0 = 2 * coarse.v0 - fine.v0;
-  std::size_t valid = 0;
-  for (int j = 0; j < coarse.height; ++j) {
-    const int fj = fj0 + 2 * j;
-    const Eigen::Vector3f* rows[2] = {
-        fj >= 0 && fj < fine.height ? fine.points + static_cast<std::size_t>(fj) * fine.width
-                                    : nullptr,
-        fj + 1 >= 0 && fj + 1 < fine.height
-            ? fine.points + static_cast<std::size_t>(fj + 1) * fine.width
-            : nullptr};
-    Eigen::Vector3f* out = coarse.storage.data() + static_cast<std::size_t>(j) * coarse.width;
-    for (int i = 0; i < coarse.width; ++i) {
-      const int fi = fi0 + 2 * i;
-      // Most of a crop's window lies outside its sphere: a block of four empty pixels is the
-      // common case, told from four depths.
-      if (rows[0] != nullptr && rows[1] != nullptr && fi >= 0 && fi + 1 < fine.width &&
-          !OrganizedCloud::valid(rows[0][fi]) && !OrganizedCloud::valid(rows[0][fi + 1]) &&
-          !OrganizedCloud::valid(rows[1][fi]) && !OrganizedCloud::valid(rows[1][fi + 1])) {
-        out[i] = Eigen::Vector3f::Constant(kNaN);
-        continue;
-      }
-      const Eigen::Vector3f* block[4];
-      int n = 0;
-      for (const Eigen::Vector3f* row : rows) {
-        if (row == nullptr) continue;
-        if (fi >= 0 && OrganizedCloud::valid(row[fi])) block[n++] = &row[fi];
-        if (fi + 1 < fine.width && OrganizedCloud::valid(row[fi + 1])) block[n++] = &row[fi + 1];
-      }
-      valid += n;
-      if (n == 0) {
-        out[i] = Eigen::Vector3f::Constant(kNaN);
-        continue;
-      }
-      float z_min = block[0]->z();
-      for (int k = 1; k < n; ++k) z_min = std::min(z_min, block[k]->z());
-      const float z_max = z_min * 1.02f;
-      Eigen::Vector3f sum = Eigen::Vector3f::Zero();
-      int count = 0;
-      for (int k = 0; k < n; ++k) {
-        if (block[k]->z() <= z_max) sum += *block[k], ++count;
-      }
-      out[i] = sum / static_cast<float>(count);
-    }
+// Projector::move's loop, on its own so that the arrays are known not to overlap.
+void move_points(std::size_t n, const float* pose, const float* camera,
+                 const float* __restrict__ mx, const float* __restrict__ my,
+                 const float* __restrict__ mz, const float* __restrict__ mnx,
+                 const float* __restrict__ mny, const float* __restrict__ mnz,
+                 float* __restrict__ px, float* __restrict__ py, float* __restrict__ pz,
+                 float* __restrict__ nx, float* __restrict__ ny, float* __restrict__ nz,
+                 float* __restrict__ u, float* __restrict__ v, int* __restrict__ seen) {
+  const float r00 = pose[0], r01 = pose[1], r02 = pose[2], r10 = pose[3], r11 = pose[4],
+              r12 = pose[5], r20 = pose[6], r21 = pose[7], r22 = pose[8];
+  const float t0 = pose[9], t1 = pose[10], t2 = pose[11];
+  const float o0 = camera[0], o1 = camera[1], o2 = camera[2];
+  const float fx = camera[3], fy = camera[4], cx = camera[5], cy = camera[6];
+  for (std::size_t k = 0; k < n; ++k) {
+    const float x = r00 * mx[k] + r01 * my[k] + r02 * mz[k] + t0;
+    const float y = r10 * mx[k] + r11 * my[k] + r12 * mz[k] + t1;
+    const float z = r20 * mx[k] + r21 * my[k] + r22 * mz[k] + t2;
+    const float a = r00 * mnx[k] + r01 * mny[k] + r02 * mnz[k];
+    const float b = r10 * mnx[k] + r11 * mny[k] + r12 * mnz[k];
+    const float c = r20 * mnx[k] + r21 * mny[k] + r22 * mnz[k];
+    const float dx = x - o0, dy = y - o1, dz = z - o2;
+    const float inv_z = 1.0f / dz;
+    const float pu = fx * dx * inv_z + cx, pv = fy * dy * inv_z + cy;
+    px[k] = x, py[k] = y, pz[k] = z, nx[k] = a, ny[k] = b, nz[k] = c;
+    // NaN and out-of-range pixels fail these tests, and are zeroed so the int conversion
+    // downstream stays defined.
+    const bool in = (a * dx + b * dy + c * dz < 0.0f) & (dz > 1e-3f) & (pu >= 0.0f) & (pv >= 0.0f) &
+                    (pu < kFarPixel) & (pv < kFarPixel);
+    u[k] = in ? pu : 0.0f;
+    v[k] = in ? pv : 0.0f;
+    seen[k] = in;
   }
-  if (fine_valid != nullptr) *fine_valid = valid;
-  return coarse;
 }
 
-// Projects camera-frame points into the depth image at some pyramid level.
+// Projects camera-frame points into the depth image.
 class Projector {
  public:
-  explicit Projector(const OrganizedCloud& scene)
-      : k_(scene.intrinsics),
-        distorted_(scene.intrinsics.has_distortion()),
-        origin_(scene.depth_to_color_m),
+  Projector(const PinholeModel& intrinsics, const Eigen::Vector3f& depth_to_color_m)
+      : k_(intrinsics),
+        distorted_(intrinsics.has_distortion()),
+        origin_(depth_to_color_m),
         fx_(static_cast<float>(k_.fx)),
         fy_(static_cast<float>(k_.fy)),
         cx_(static_cast<float>(k_.cx + 0.5)),
         cy_(static_cast<float>(k_.cy + 0.5)) {}
+  explicit Projector(const OrganizedCloud& scene)
+      : Projector(scene.intrinsics, scene.depth_to_color_m) {}
   // The depth camera's centre in the camera frame: where view rays start.
   const Eigen::Vector3f& origin() const { return origin_; }
-  // Integer pixel at `level` (full-resolution pixel centres map to 2^-level of themselves).
-  bool pixel(const Eigen::Vector3f& p_camera, const Level& level, int& i, int& j) const {
-    const Eigen::Vector3f p = p_camera - origin_;
-    if (p.z() <= 1e-3f) return false;
-    float u, v;  // shifted by half a pixel, so truncation is the pixel index
-    if (distorted_) {
-      const auto px = k_.project(p.cast<double>());
-      u = static_cast<float>(px->x() + 0.5), v = static_cast<float>(px->y() + 0.5);
-    } else {
-      const float inv_z = 1.0f / p.z();
-      u = fx_ * p.x() * inv_z + cx_;
-      v = fy_ * p.y() * inv_z + cy_;
+
+  // One pass over plain arrays of floats, which the compiler turns into vector instructions:
+  // every point is moved and projected whether or not it is seen, and `seen` says which count.
+  // `out` holds room for n points.
+  void move(const IcpModel& model, std::size_t n, const Eigen::Isometry3d& T,
+            MovedModel& out) const {
+    out.n = n;
+    const Eigen::Matrix3f R = T.linear().cast<float>();
+    const Eigen::Vector3f t = T.translation().cast<float>();
+    const float pose[12] = {R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2),
+                            R(2, 0), R(2, 1), R(2, 2), t.x(),   t.y(),   t.z()};
+    const float camera[7] = {origin_.x(), origin_.y(), origin_.z(), fx_, fy_, cx_, cy_};
+    move_points(n, pose, camera, model.column(0), model.column(1), model.column(2), model.column(3),
+                model.column(4), model.column(5), out.px, out.py, out.pz, out.nx, out.ny, out.nz,
+                out.u, out.v, out.seen);
+    if (!distorted_) return;
+    // The distortion model is solved in double, point by point, over the first pass's result.
+    const float o0 = origin_.x(), o1 = origin_.y(), o2 = origin_.z();
+    const float *px = out.px, *py = out.py, *pz = out.pz, *nx = out.nx, *ny = out.ny, *nz = out.nz;
+    float *u = out.u, *v = out.v;
+    int* seen = out.seen;
+    for (std::size_t k = 0; k < n; ++k) {
+      const float dz = pz[k] - o2;
+      const bool facing = nx[k] * (px[k] - o0) + ny[k] * (py[k] - o1) + nz[k] * dz < 0.0f;
+      seen[k] = 0;
+      u[k] = v[k] = 0.0f;
+      if (!facing || !(dz > 1e-3f)) continue;
+      const auto px_d = k_.project(Eigen::Vector3d(px[k] - o0, py[k] - o1, dz));
+      if (!px_d) continue;
+      const float pu = static_cast<float>(px_d->x() + 0.5),
+                  pv = static_cast<float>(px_d->y() + 0.5);
+      if (!(pu >= 0.0f && pv >= 0.0f && pu < kFarPixel && pv < kFarPixel)) continue;
+      u[k] = pu, v[k] = pv, seen[k] = 1;
     }
-    if (!(u >= 0.0f && v >= 0.0f)) return false;  // also rejects NaN
-    const float inv_s = 1.0f / static_cast<float>(level.scale);
-    i = static_cast<int>(u * inv_s) - level.u0;
-    j = static_cast<int>(v * inv_s) - level.v0;
-    return i >= 0 && j >= 0 && i < level.width && j < level.height;
   }
 
  private:
@@ -180,16 +501,17 @@ class Projector {
 // when the neighbourhood has too few points.
 Eigen::Vector3f scene_normal(const Level& level, int i, int j, int step,
                              const Eigen::Vector3f& view_origin) {
-  auto valid_at = [&](int a, int b) -> const Eigen::Vector3f* {
-    if (a < 0 || b < 0 || a >= level.width || b >= level.height) return nullptr;
-    const Eigen::Vector3f& p = level.at(a, b);
-    return OrganizedCloud::valid(p) ? &p : nullptr;
+  Eigen::Vector3f points[5];
+  auto valid_at = [&](int a, int b, int slot) -> const Eigen::Vector3f* {
+    if (!level.contains(a, b) || !level.valid(a, b)) return nullptr;
+    points[slot] = level.at(a, b);
+    return &points[slot];
   };
-  const Eigen::Vector3f* c = valid_at(i, j);
-  const Eigen::Vector3f* r = valid_at(i + step, j);
-  const Eigen::Vector3f* l = valid_at(i - step, j);
-  const Eigen::Vector3f* d = valid_at(i, j + step);
-  const Eigen::Vector3f* u = valid_at(i, j - step);
+  const Eigen::Vector3f* c = valid_at(i, j, 0);
+  const Eigen::Vector3f* r = valid_at(i + step, j, 1);
+  const Eigen::Vector3f* l = valid_at(i - step, j, 2);
+  const Eigen::Vector3f* d = valid_at(i, j + step, 3);
+  const Eigen::Vector3f* u = valid_at(i, j - step, 4);
   const Eigen::Vector3f* h0 = l ? l : c;
   const Eigen::Vector3f* h1 = r ? r : c;
   const Eigen::Vector3f* v0 = u ? u : c;
@@ -203,43 +525,59 @@ Eigen::Vector3f scene_normal(const Level& level, int i, int j, int step,
   return n;
 }
 
+// Scene normals from neighbours this far apart: wide enough at full resolution to see through
+// the sensor noise, adjacent at the coarse levels where averaging already smoothed it.
+int normal_step(const Level& level) {
+  return level.scale == 1 ? 2 : 1;
+}
+
 // scene_normal per pixel of one pyramid level, each solved on first use.
 class SceneNormals {
  public:
-  bool empty() const { return solved_.empty(); }
-  void reset(const Level& level) {
+  SceneNormals(const Level& level, Scratch& scratch) : level_(level), step_(normal_step(level)) {
     const std::size_t n = static_cast<std::size_t>(level.width) * level.height;
-    solved_.assign(n, 0);
-    normals_.resize(n);
+    solved_ = scratch.take<unsigned char>(n);
+    std::fill(solved_, solved_ + n, 0);
+    for (float*& plane : normals_) plane = scratch.take<float>(n);  // written when solved
   }
-  const Eigen::Vector3f& at(const Level& level, int i, int j, int step,
-                            const Eigen::Vector3f& view_origin) {
-    const std::size_t k = static_cast<std::size_t>(j) * level.width + i;
+  Eigen::Vector3f at(int i, int j, const Eigen::Vector3f& view_origin) {
+    const std::size_t k = level_.cell(i, j);
     if (!solved_[k]) {
-      normals_[k] = scene_normal(level, i, j, step, view_origin);
+      level_.ensure(i - step_, i + step_, j - step_, j + step_);
+      const Eigen::Vector3f n = scene_normal(level_, i, j, step_, view_origin);
+      for (int c = 0; c < 3; ++c) normals_[c][k] = n[c];
       solved_[k] = 1;
     }
-    return normals_[k];
+    return {normals_[0][k], normals_[1][k], normals_[2][k]};
   }
 
  private:
-  std::vector<unsigned char> solved_;
-  std::vector<Eigen::Vector3f> normals_;
+  const Level& level_;
+  int step_;
+  unsigned char* solved_;
+  float* normals_[3];
 };
 
-// The scene point for a model point: at its pixel, or the nearest within +-radius pixels.
-bool associate(const Level& level, const Projector& projector, const Eigen::Vector3f& p,
-               int radius_px, Eigen::Vector3f& q, int& qi, int& qj) {
-  int i, j;
-  if (!projector.pixel(p, level, i, j)) return false;
+// The scene point for a model point at pixel (i, j): there, or the nearest within +-radius.
+bool associate(const Level& level, const Eigen::Vector3f& p, int i, int j, int radius_px,
+               Eigen::Vector3f& q, int& qi, int& qj) {
+  if (radius_px == 0) {
+    level.ensure(i, j);
+    if (!level.valid(i, j)) return false;
+    q = level.at(i, j), qi = i, qj = j;
+    return true;
+  }
   float best = std::numeric_limits<float>::max();
   const int i_lo = std::max(0, i - radius_px), i_hi = std::min(level.width - 1, i + radius_px);
   const int j_lo = std::max(0, j - radius_px), j_hi = std::min(level.height - 1, j + radius_px);
+  level.ensure(i_lo, i_hi, j_lo, j_hi);
   for (int b = j_lo; b <= j_hi; ++b) {
+    const std::size_t row = level.cell(0, b);
     for (int a = i_lo; a <= i_hi; ++a) {
-      const Eigen::Vector3f& s = level.at(a, b);
-      if (!OrganizedCloud::valid(s)) continue;
-      const float d2 = (s - p).squaredNorm();
+      const float dz = level.z[row + a] - p.z();
+      if (!(dz == dz)) continue;
+      const float dx = level.x[row + a] - p.x(), dy = level.y[row + a] - p.y();
+      const float d2 = dx * dx + dy * dy + dz * dz;
       if (d2 < best) best = d2, qi = a, qj = b;
     }
   }
@@ -260,29 +598,79 @@ Eigen::Isometry3d apply_twist(const Eigen::Matrix<double, 6, 1>& xi, const Eigen
   return out;
 }
 
-// Scene normals from neighbours this far apart: wide enough at full resolution to see through
-// the sensor noise, adjacent at the coarse levels where averaging already smoothed it.
-int normal_step(const Level& level) {
-  return level.scale == 1 ? 2 : 1;
-}
+// The Gauss-Newton system of point-to-plane matches: J = (p x n, n), summed as w J J^T and
+// w r J. The matches are kept as planes and summed in lanes of floats the compiler turns into
+// vector instructions, lane by lane in a fixed order, so the sums are the same on every run.
+class NormalEquations {
+ public:
+  NormalEquations(std::size_t capacity, Scratch& scratch) {
+    // Room for a whole last block of lanes, zeroed before each sum.
+    for (float*& plane : planes_) plane = scratch.take<float>(capacity + kLanes);
+  }
+  void clear() { m_ = 0; }
+  std::size_t size() const { return m_; }
+  // Planes 0-5 hold J, 6-11 w J and 12 the residual.
+  void add(const Eigen::Vector3f& p, const Eigen::Vector3f& n, float r, float w) {
+    const Eigen::Vector3f pxn = p.cross(n);
+    const float J[6] = {pxn.x(), pxn.y(), pxn.z(), n.x(), n.y(), n.z()};
+    for (int a = 0; a < 6; ++a) planes_[a][m_] = J[a], planes_[6 + a][m_] = w * J[a];
+    planes_[12][m_] = r;
+    ++m_;
+  }
+  void solve_inputs(Eigen::Matrix<double, 6, 6>& H, Eigen::Matrix<double, 6, 1>& g) {
+    constexpr int kSums = 27;  // 21 of H's lower triangle, 6 of g
+    // The last block padded with zero weights, so every block is whole.
+    const std::size_t blocks = (m_ + kLanes - 1) / kLanes;
+    for (std::size_t k = m_; k < blocks * kLanes; ++k) {
+      for (float* plane : planes_) plane[k] = 0.0f;
+    }
+    alignas(32) float sums[kSums][kLanes] = {};
+    for (std::size_t block = 0; block < blocks; ++block) {
+      const std::size_t k0 = block * kLanes;
+      int s = 0;
+      for (int a = 0; a < 6; ++a) {
+        for (int b = 0; b <= a; ++b, ++s)
+          add_products(sums[s], planes_[6 + a] + k0, planes_[b] + k0);
+      }
+      for (int a = 0; a < 6; ++a, ++s) add_products(sums[s], planes_[6 + a] + k0, planes_[12] + k0);
+    }
+    double total[kSums];
+    for (int s = 0; s < kSums; ++s) {
+      total[s] = 0.0;
+      for (int lane = 0; lane < kLanes; ++lane) total[s] += sums[s][lane];
+    }
+    int s = 0;
+    for (int a = 0; a < 6; ++a) {
+      for (int b = 0; b <= a; ++b) H(a, b) = H(b, a) = total[s++];
+    }
+    for (int a = 0; a < 6; ++a) g[a] = total[21 + a];
+  }
+
+ private:
+  static constexpr int kLanes = 8;
+  static void add_products(float* __restrict__ sum, const float* __restrict__ a,
+                           const float* __restrict__ b) {
+    for (int lane = 0; lane < kLanes; ++lane) sum[lane] += a[lane] * b[lane];
+  }
+  float* planes_[13];
+  std::size_t m_ = 0;
+};
 
 // The model's own depth image at 1/4 resolution (every model point facing the camera splatted
 // into its cell), so points hidden behind another part of the model (the ears, the far flank)
 // count neither for nor against a pose.
-std::vector<float> model_depth_buffer(const IcpModel& model, const Level& grid,
-                                      const Projector& projector, const Eigen::Matrix3f& R,
-                                      const Eigen::Vector3f& t) {
-  std::vector<float> z_buffer(static_cast<std::size_t>(grid.width) * grid.height,
-                              std::numeric_limits<float>::infinity());
+float* model_depth_buffer(const MovedModel& moved, const Level& grid, const Projector& projector,
+                          Scratch& scratch) {
+  const std::size_t cells = static_cast<std::size_t>(grid.width) * grid.height;
+  float* z_buffer = scratch.take<float>(cells);
+  std::fill(z_buffer, z_buffer + cells, std::numeric_limits<float>::infinity());
   // A prefix dense enough to cover every cell of a target at working distance.
-  const std::size_t n = std::min<std::size_t>(model.points().size(), 8000);
+  const std::size_t n = std::min<std::size_t>(moved.n, 8000);
   for (std::size_t k = 0; k < n; ++k) {
-    const Eigen::Vector3f p = R * model.points()[k] + t;
-    if ((R * model.normals()[k]).dot(p - projector.origin()) >= 0.0f) continue;
     int i, j;
-    if (!projector.pixel(p, grid, i, j)) continue;
-    float& z = z_buffer[static_cast<std::size_t>(j) * grid.width + i];
-    z = std::min(z, p.z() - projector.origin().z());
+    if (!moved.seen[k] || !moved.pixel(k, grid, i, j)) continue;
+    float& z = z_buffer[grid.cell(i, j)];
+    z = std::min(z, moved.pz[k] - projector.origin().z());
   }
   return z_buffer;
 }
@@ -294,44 +682,45 @@ std::vector<float> model_depth_buffer(const IcpModel& model, const Level& grid,
 template <typename Visit>
 std::size_t visit_inliers(const IcpModel& model, const Level& level, const Projector& projector,
                           const Eigen::Isometry3d& T, const IcpOptions& options,
-                          std::size_t max_model_points, Visit&& visit) {
-  const Eigen::Matrix3f R = T.linear().cast<float>();
-  const Eigen::Vector3f t = T.translation().cast<float>();
+                          std::size_t max_model_points, Scratch& scratch, Visit&& visit) {
   Level grid;  // geometry only
   grid.scale = level.scale * 4;
   grid.u0 = level.u0 >> 2;
   grid.v0 = level.v0 >> 2;
   grid.width = ((level.u0 + level.width + 3) >> 2) - grid.u0;
   grid.height = ((level.v0 + level.height + 3) >> 2) - grid.v0;
-  const std::vector<float> z_buffer = model_depth_buffer(model, grid, projector, R, t);
-  const std::size_t n_model = std::min<std::size_t>(model.points().size(), max_model_points);
+  const std::size_t n_model = std::min<std::size_t>(model.size(), max_model_points);
+  const std::size_t n_moved =
+      std::max<std::size_t>(n_model, std::min<std::size_t>(model.size(), 8000));
+  MovedModel moved(n_moved, scratch);
+  projector.move(model, n_moved, T, moved);
+  const float* z_buffer = model_depth_buffer(moved, grid, projector, scratch);
   const float inlier_m = static_cast<float>(options.inlier_distance_m);
   const float hidden_m = std::max(0.01f, 2.0f * inlier_m);
   std::size_t candidates = 0;
   for (std::size_t k = 0; k < n_model; ++k) {
-    const Eigen::Vector3f p = R * model.points()[k] + t;
-    const Eigen::Vector3f n = R * model.normals()[k];
-    if (n.dot(p - projector.origin()) >= 0.0f) continue;
     int i, j, gi, gj;
-    if (!projector.pixel(p, level, i, j) || !projector.pixel(p, grid, gi, gj)) continue;
-    const float z_front = z_buffer[static_cast<std::size_t>(gj) * grid.width + gi];
-    if (p.z() - projector.origin().z() > z_front + hidden_m) continue;
+    if (!moved.seen[k] || !moved.pixel(k, level, i, j) || !moved.pixel(k, grid, gi, gj)) continue;
+    const float z_front = z_buffer[grid.cell(gi, gj)];
+    if (moved.pz[k] - projector.origin().z() > z_front + hidden_m) continue;
     ++candidates;
-    const Eigen::Vector3f& q = level.at(i, j);
-    if (!OrganizedCloud::valid(q) || (q - p).norm() > inlier_m) continue;
-    visit(k, p, n, q);
+    level.ensure(i, j);
+    if (!level.valid(i, j)) continue;
+    const Eigen::Vector3f p = moved.p(k), q = level.at(i, j);
+    if ((q - p).norm() > inlier_m) continue;
+    visit(k, p, moved.normal(k), q);
   }
   return candidates;
 }
 
 void measure_quality(const IcpModel& model, const Level& level, const Projector& projector,
-                     const Eigen::Isometry3d& T, const IcpOptions& options,
+                     const Eigen::Isometry3d& T, const IcpOptions& options, Scratch& scratch,
                      RegistrationResult& result) {
   // A few thousand points pin a fraction down to about a percent; more only cost time.
   std::size_t inliers = 0;
   double sum_sq = 0.0;
   const std::size_t candidates =
-      visit_inliers(model, level, projector, T, options, 3000,
+      visit_inliers(model, level, projector, T, options, 3000, scratch,
                     [&](std::size_t, const Eigen::Vector3f& p, const Eigen::Vector3f& n,
                         const Eigen::Vector3f& q) {
                       ++inliers;
@@ -343,22 +732,9 @@ void measure_quality(const IcpModel& model, const Level& level, const Projector&
   result.rmse_mm = inliers > 0 ? 1000.0 * std::sqrt(sum_sq / inliers) : 0.0;
 }
 
-// Also counts the scene's valid points, on the way through level 0.
-std::vector<Level> build_pyramid(const OrganizedCloud& scene, int levels, std::size_t& valid) {
-  std::vector<Level> pyramid;
-  pyramid.reserve(levels);
-  pyramid.push_back(borrow(scene));
-  valid = 0;
-  if (levels == 1) valid = scene.valid_count();
-  for (int l = 1; l < levels; ++l) {
-    pyramid.push_back(downsample(pyramid.back(), l == 1 ? &valid : nullptr));
-  }
-  return pyramid;
-}
-
-RegistrationResult run_schedule(const IcpModel& model, const std::vector<Level>& pyramid,
+RegistrationResult run_schedule(const IcpModel& model, const ScenePyramid& pyramid,
                                 const Projector& projector, const Eigen::Isometry3d& guess,
-                                const IcpOptions& options) {
+                                const IcpOptions& options, Scratch& scratch) {
   RegistrationResult result;
   const float cos_max_angle =
       static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180.0));
@@ -367,35 +743,36 @@ RegistrationResult run_schedule(const IcpModel& model, const std::vector<Level>&
   bool every_stage_matched = true;
   // Scene normals are solved for a pixel the first time a match lands there and kept for the
   // frame's later iterations, which land mostly on the same pixels.
-  std::vector<SceneNormals> normals(pyramid.size());
+  std::vector<std::optional<SceneNormals>> normals(pyramid.levels());
+  std::size_t most_points = 0;
   for (const IcpStage& stage : options.stages) {
-    const Level& level = pyramid[stage.pyramid_level];
-    SceneNormals& level_normals = normals[stage.pyramid_level];
-    if (level_normals.empty()) level_normals.reset(level);
+    most_points = std::max<std::size_t>(most_points, std::max(0, stage.max_model_points));
+  }
+  most_points = std::min(most_points, model.size());
+  NormalEquations equations(most_points, scratch);
+  MovedModel moved(most_points, scratch);
+  for (const IcpStage& stage : options.stages) {
+    const Level& level = pyramid.level(stage.pyramid_level);
+    auto& level_normals = normals[stage.pyramid_level];
+    if (!level_normals) level_normals.emplace(level, scratch);
     const std::size_t n_model = std::min<std::size_t>(
-        model.points().size(), static_cast<std::size_t>(stage.max_model_points));
+        model.size(), static_cast<std::size_t>(std::max(0, stage.max_model_points)));
     const float max_d2 = static_cast<float>(stage.max_distance_m * stage.max_distance_m);
     const double tukey_c = options.tukey_scale * stage.max_distance_m;
-    const int step = normal_step(level);
     for (int it = 0; it < stage.iterations; ++it) {
-      const Eigen::Matrix3f R = T.linear().cast<float>();
-      const Eigen::Vector3f t = T.translation().cast<float>();
-      // One pass: each match is weighed and summed into the 6x6 system as it is found, in the
-      // model's order (the sums, and so the pose, are the same on every run).
-      Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
-      Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+      projector.move(model, n_model, T, moved);
+      equations.clear();
       std::size_t matched = 0;
       for (std::size_t k = 0; k < n_model; ++k) {
-        const Eigen::Vector3f p = R * model.points()[k] + t;
-        const Eigen::Vector3f n = R * model.normals()[k];
-        // Only the side facing the camera can be seen; the back side would otherwise match
-        // the support plane or the far surface of the target itself.
-        if (n.dot(p - projector.origin()) >= 0.0f) continue;
+        int i, j;
+        if (!moved.seen[k] || !moved.pixel(k, level, i, j)) continue;
+        const Eigen::Vector3f p = moved.p(k);
         Eigen::Vector3f q;
         int qi, qj;
-        if (!associate(level, projector, p, stage.search_radius_px, q, qi, qj)) continue;
+        if (!associate(level, p, i, j, stage.search_radius_px, q, qi, qj)) continue;
         if ((q - p).squaredNorm() > max_d2) continue;
-        const Eigen::Vector3f& ns = level_normals.at(level, qi, qj, step, projector.origin());
+        const Eigen::Vector3f n = moved.normal(k);
+        const Eigen::Vector3f ns = level_normals->at(qi, qj, projector.origin());
         if (ns.isZero() || ns.dot(n) < cos_max_angle) continue;
         ++matched;
         const double r = n.dot(p - q);
@@ -405,20 +782,16 @@ RegistrationResult run_schedule(const IcpModel& model, const std::vector<Level>&
           if (std::abs(u) >= 1.0) continue;
           w = (1.0 - u * u) * (1.0 - u * u);
         }
-        Eigen::Matrix<double, 6, 1> J;
-        J.head<3>() = p.cross(n).cast<double>();
-        J.tail<3>() = n.cast<double>();
-        for (int a = 0; a < 6; ++a) {
-          for (int b = 0; b <= a; ++b) H(a, b) += w * J[a] * J[b];
-        }
-        g += (w * r) * J;
+        equations.add(p, n, static_cast<float>(r), static_cast<float>(w));
       }
       ++result.iterations;
       if (matched < 12) {
         every_stage_matched = false;
         break;
       }
-      H = H.selfadjointView<Eigen::Lower>();
+      Eigen::Matrix<double, 6, 6> H;
+      Eigen::Matrix<double, 6, 1> g;
+      equations.solve_inputs(H, g);
       // A touch of damping keeps a flat or symmetric patch from making the solve singular.
       H.diagonal().array() += 1e-9 + 1e-6 * H.diagonal().maxCoeff();
       Eigen::Matrix<double, 6, 1> xi = Eigen::Matrix<double, 6, 1>::Zero();
@@ -439,7 +812,7 @@ RegistrationResult run_schedule(const IcpModel& model, const std::vector<Level>&
   }
   result.T_camera_model = T;
   result.converged = every_stage_matched;
-  measure_quality(model, pyramid[0], projector, T, options, result);
+  measure_quality(model, pyramid.level(0), projector, T, options, scratch, result);
   return result;
 }
 
@@ -448,21 +821,27 @@ bool better(const RegistrationResult& a, const RegistrationResult& b) {
   return a.inlier_fraction > b.inlier_fraction;
 }
 
-RegistrationResult align_impl(const IcpModel& model, const OrganizedCloud& scene,
-                              const Eigen::Isometry3d& guess, const IcpOptions& options,
-                              Clock::time_point started) {
+int pyramid_levels(const IcpOptions& options) {
   int levels = 1;
-  for (const IcpStage& s : options.stages) levels = std::max(levels, s.pyramid_level + 1);
-  std::size_t scene_points = 0;
-  const std::vector<Level> pyramid = build_pyramid(scene, levels, scene_points);
-  const Projector projector(scene);
-  RegistrationResult best = run_schedule(model, pyramid, projector, guess, options);
+  for (const IcpStage& s : options.stages) {
+    if (s.pyramid_level < 0) {
+      throw std::invalid_argument("align_projective_icp: pyramid_level < 0");
+    }
+    levels = std::max(levels, s.pyramid_level + 1);
+  }
+  return levels;
+}
+
+RegistrationResult align_impl(const IcpModel& model, const ScenePyramid& pyramid,
+                              const Projector& projector, const Eigen::Isometry3d& guess,
+                              const IcpOptions& options, Scratch& scratch) {
+  RegistrationResult best = run_schedule(model, pyramid, projector, guess, options, scratch);
   int iterations = best.iterations, hypotheses = 1;
   if (best.inlier_fraction < options.retry_below_inlier_fraction) {
     for (int axis = 0; axis < 6; ++axis) {
       Eigen::Isometry3d hypothesis = guess;
       hypothesis.translation()[axis / 2] += (axis % 2 ? -1.0 : 1.0) * options.hypothesis_offset_m;
-      RegistrationResult r = run_schedule(model, pyramid, projector, hypothesis, options);
+      RegistrationResult r = run_schedule(model, pyramid, projector, hypothesis, options, scratch);
       iterations += r.iterations;
       ++hypotheses;
       if (better(r, best)) best = r;
@@ -471,8 +850,6 @@ RegistrationResult align_impl(const IcpModel& model, const OrganizedCloud& scene
   }
   best.iterations = iterations;
   best.hypotheses = hypotheses;
-  best.scene_points = scene_points;
-  best.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
   return best;
 }
 
@@ -481,7 +858,14 @@ RegistrationResult align_impl(const IcpModel& model, const OrganizedCloud& scene
 RegistrationResult align_projective_icp(const IcpModel& model, const OrganizedCloud& scene,
                                         const Eigen::Isometry3d& T_camera_model_guess,
                                         const IcpOptions& options) {
-  return align_impl(model, scene, T_camera_model_guess, options, Clock::now());
+  const auto started = Clock::now();
+  Scratch::Lease scratch;
+  const ScenePyramid pyramid(scene, pyramid_levels(options), *scratch);
+  RegistrationResult result =
+      align_impl(model, pyramid, Projector(scene), T_camera_model_guess, options, *scratch);
+  result.scene_points = scene.valid_count();
+  result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
+  return result;
 }
 
 RegistrationResult align_projective_icp(const IcpModel& model, const DepthFrame& frame,
@@ -489,10 +873,18 @@ RegistrationResult align_projective_icp(const IcpModel& model, const DepthFrame&
                                         const Eigen::Isometry3d& T_camera_model_guess,
                                         double crop_margin_m, const IcpOptions& options) {
   const auto started = Clock::now();
-  const OrganizedCloud scene =
-      crop_sphere(frame, depth_to_color_m, T_camera_model_guess.translation(),
-                  model.bounding_radius_m() + crop_margin_m);
-  return align_impl(model, scene, T_camera_model_guess, options, started);
+  detail::check_frame(frame);
+  const detail::SphereCrop crop =
+      detail::sphere_crop(frame, depth_to_color_m, T_camera_model_guess.translation(),
+                          model.bounding_radius_m() + crop_margin_m);
+  Scratch::Lease scratch;
+  const ScenePyramid pyramid(frame, crop, pyramid_levels(options), *scratch);
+  RegistrationResult result =
+      align_impl(model, pyramid, Projector(frame.intrinsics, crop.depth_to_color_m),
+                 T_camera_model_guess, options, *scratch);
+  result.scene_points = pyramid.level0_valid();
+  result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
+  return result;
 }
 
 RegistrationResult evaluate_alignment(const IcpModel& model, const OrganizedCloud& scene,
@@ -502,8 +894,10 @@ RegistrationResult evaluate_alignment(const IcpModel& model, const OrganizedClou
   RegistrationResult result;
   result.T_camera_model = T_camera_model;
   result.scene_points = scene.valid_count();
-  const Projector projector(scene);
-  measure_quality(model, borrow(scene), projector, T_camera_model, options, result);
+  Scratch::Lease scratch;
+  const ScenePyramid pyramid(scene, 1, *scratch);
+  measure_quality(model, pyramid.level(0), Projector(scene), T_camera_model, options, *scratch,
+                  result);
   result.converged = true;
   result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
   return result;
@@ -526,7 +920,9 @@ PoseSpread pose_spread(const IcpModel& model, const OrganizedCloud& scene,
   std::map<std::array<int, 3>, Block> blocks;
   Block all;
   const Projector projector(scene);
-  visit_inliers(model, borrow(scene), projector, T_camera_model, options, model.points().size(),
+  Scratch::Lease scratch;
+  const ScenePyramid pyramid(scene, 1, *scratch);
+  visit_inliers(model, pyramid.level(0), projector, T_camera_model, options, model.size(), *scratch,
                 [&](std::size_t k, const Eigen::Vector3f& p, const Eigen::Vector3f& n,
                     const Eigen::Vector3f& q) {
                   Vector6 J;
