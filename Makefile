@@ -36,13 +36,20 @@ $(MONITOR_NODE_MODULES): tests/monitor/package-lock.json
 	@if command -v npm >/dev/null; then npm ci --prefix tests/monitor --no-audit --no-fund; \
 	else echo "no npm: the monitor's browser tests will be skipped"; fi
 
+# test_foxglove_peer's ROS 2 node (@foxglove/ros2 under Node.js, not built on Cyclone): installed
+# from tests/ros2_peer/package-lock.json the same way. Without it that test fails and says so.
+ROS2_PEER_NODE_MODULES = tests/ros2_peer/node_modules/.package-lock.json
+$(ROS2_PEER_NODE_MODULES): tests/ros2_peer/package-lock.json
+	@if command -v npm >/dev/null; then npm ci --prefix tests/ros2_peer --no-audit --no-fund; \
+	else echo "no npm: test_foxglove_peer will fail (it needs tests/ros2_peer/node_modules)"; fi
+
 # The fast suite first, so its failures show within minutes; then the `slow` label (the minute
 # of fuzzing, the interruption test).
-test: build $(MONITOR_NODE_MODULES)
+test: build $(MONITOR_NODE_MODULES) $(ROS2_PEER_NODE_MODULES)
 	cd $(BUILD_DIR) && ctest -LE slow --output-on-failure -j $(JOBS) --timeout 900
 	cd $(BUILD_DIR) && ctest -L slow --output-on-failure -j $(JOBS) --timeout 900
 
-test-asan: deps $(MONITOR_NODE_MODULES)
+test-asan: deps $(MONITOR_NODE_MODULES) $(ROS2_PEER_NODE_MODULES)
 	cmake -S . -B $(ASAN_BUILD_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPROJTOUR_SANITIZE=ON $(CMAKE_FLAGS)
 	cmake --build $(ASAN_BUILD_DIR) -j $(JOBS)
 	cd $(ASAN_BUILD_DIR) && ASAN_OPTIONS=detect_leaks=0 ctest --output-on-failure -j $(JOBS) --timeout 1800
