@@ -5,6 +5,7 @@ packages=(
   build-essential cmake pkg-config clang libclang-rt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libcpp-httplib-dev cyclonedds-dev cyclonedds-tools
+  libsqlite3-dev libssl-dev
   libeigen3-dev libyaml-cpp-dev libopencv-dev libopencv-contrib-dev libpcl-dev libopenni2-dev
   libmrpt-poses-dev libmrpt-maps-dev libmrpt-slam-dev libmrpt-obs-dev
   libmrpt-config-dev libmrpt-kinematics-dev libmrpt-hwdrivers-dev mrpt-common

@@ -1,4 +1,4 @@
-// The projtour command: run | validate | graph | plugins | localize.
+// The projtour command: run | validate | graph | plugins | history | localize.
 #include <CLI/CLI.hpp>
 #include <cstdlib>
 #include <iostream>
@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "cli_options.hpp"
+#include "projtour_executor/history.hpp"
 #include "projtour_executor/plugin_listing.hpp"
 #include "projtour_executor/runner.hpp"
 
@@ -22,11 +23,15 @@ const char* const kUsage =
     "DIR] [--resume]\n"
     "                            [--speed X] [--plugin-path DIR]... [--watchdog-s S]\n"
     "                            [--monitor [HOST:]PORT | --no-monitor] [--monitor-token FILE]\n"
+    "                            [--history FILE | --no-history]\n"
     "  projtour validate MISSION.yaml [--dry-run] [--world W.yaml] [--plugin-path DIR]...\n"
     "  projtour graph MISSION.yaml [--plugin-path DIR]...\n"
     "  projtour plugins [--plugin-path DIR]...\n"
     "    (each command with --plugin-path also takes --allow-writable-plugin-path: load from\n"
     "     directories and libraries that others than their owner and root may write)\n"
+    "  projtour history [--history FILE] [--from T] [--to T] [--content NAME] [--target ID]\n"
+    "                   [--by content|target|day|run] [--csv | --json | --html FILE]\n"
+    "                   [--include-dry-runs]\n"
     "  projtour localize --map M.yaml --rawlog R.rawlog --init X,Y,YAW_DEG [--out T.tum]\n"
     "exit status: 0 all projected, 3 finished with skips, 2 invalid input, 130 interrupted,\n"
     "             1 aborted by a failure\n";
@@ -44,7 +49,8 @@ enum Option {
   kSpeed = 32,
   kWatchdog = 64,
   kMission = 128,
-  kMonitor = 256
+  kMonitor = 256,
+  kHistory = 512
 };
 
 // Parses a mission subcommand's arguments (argv[2]...); `options` is a mask of what this
@@ -97,6 +103,12 @@ projtour::RunOptions parse_options(int argc, char** argv, int options) {
                                          [&](const std::string& f) { run.monitor_token_file = f; })
         ->type_name("FILE");
   }
+  if (options & kHistory) {
+    app.add_option_function<std::string>("--history",
+                                         [&](const std::string& f) { run.history = f; })
+        ->type_name("FILE");
+    app.add_flag("--no-history", run.no_history);
+  }
   std::vector<std::string> plugin_paths;
   app.add_option("--plugin-path", plugin_paths)->type_name("DIR")->allow_extra_args(false);
   app.add_flag("--allow-writable-plugin-path", run.allow_writable_plugin_path);
@@ -132,9 +144,9 @@ int main(int argc, char** argv) {
   const std::string command = argv[1];
   try {
     if (command == "run") {
-      const auto options = parse_options(
-          argc, argv,
-          kMission | kDryRun | kWorld | kSeed | kOut | kResume | kSpeed | kWatchdog | kMonitor);
+      const auto options = parse_options(argc, argv,
+                                         kMission | kDryRun | kWorld | kSeed | kOut | kResume |
+                                             kSpeed | kWatchdog | kMonitor | kHistory);
       return projtour::run_command(options, std::cout, std::cerr);
     }
     if (command == "validate") {
@@ -151,6 +163,7 @@ int main(int argc, char** argv) {
           options.plugin_paths, std::cout, std::cerr,
           projtour::PluginLoadOptions{options.allow_writable_plugin_path});
     }
+    if (command == "history") return projtour::history_command(argc, argv, std::cout, std::cerr);
     if (command == "localize") {
 #ifdef PROJTOUR_HAS_LOCALIZE
       return projtour::run_localize_command(argc - 1, argv + 1);

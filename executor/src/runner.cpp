@@ -15,6 +15,7 @@
 #include <mutex>
 #include <thread>
 
+#include "history_recorder.hpp"
 #include "monitor_hookup.hpp"
 #include "projtour/blackboard.hpp"
 #include "projtour/blackboard_keys.hpp"
@@ -447,6 +448,11 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   executor.add_observer(&events);
   executor.add_observer(&progress);
   executor.add_observer(&checkpoint_hook);
+  // After the checkpoint's hook: a visit recorded is one the checkpoint holds or will redo, and
+  // the redone visit replaces its row.
+  const std::unique_ptr<HistoryRecorder> history =
+      HistoryRecorder::start(options, mission, run_dir, seed, clock, err);
+  if (history) executor.add_observer(history.get());
   bool stopping = false;  // a stop was asked for: the tour winds down unpaced
   std::optional<MonitorPublisher> publisher;
   if (monitor) {
@@ -640,6 +646,7 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   if (write_failure.empty()) write_failure = claimed->first_write_failure();
   const TourOutcome outcome = write_failure.empty() ? executor.outcome() : TourOutcome::aborted;
   RunSummary summary = make_summary(outcome);
+  if (history) history->finish(to_string(outcome), summary.notes);
   if (!write_failure.empty()) summary.reason = write_failure;
   if (GroundTruth* truth = drivers.ground_truth()) summary.building = truth->building_truth();
   try {

@@ -38,7 +38,7 @@ for n in "${counts[@]}"; do
   rm -rf "$run"
   echo "== $n targets: $mission -> $run" >&2
   /usr/bin/time -v -o "$out/time_$n.txt" "$build/projtour" run "$mission" --dry-run \
-    --world "$out/world.yaml" --out "$run" --plugin-path "$build/plugins" \
+    --world "$out/world.yaml" --out "$run" --plugin-path "$build/plugins" --no-history \
     >"$out/stdout_$n.txt" 2>"$out/stderr_$n.txt" &
   timer=$!
   : >"$out/samples_$n.txt"

@@ -65,7 +65,7 @@ const runDir = path.join(outDir, "run");
 const child = spawn(projtour, [
   "run", path.join(source, "missions/demo_tour.yaml"), "--dry-run",
   "--world", path.join(source, "missions/demo_world.yaml"), "--speed", speed,
-  "--monitor", "127.0.0.1:0", "--out", runDir,
+  "--monitor", "127.0.0.1:0", "--out", runDir, "--no-history",
 ], { stdio: ["ignore", "pipe", "pipe"] });
 const stdoutLog = fs.createWriteStream(path.join(outDir, "projtour.stdout"));
 const stderrLog = fs.createWriteStream(path.join(outDir, "projtour.stderr"));

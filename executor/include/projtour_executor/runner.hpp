@@ -50,6 +50,10 @@ struct RunOptions {
   std::optional<std::string> monitor;
   bool no_monitor = false;
   std::optional<std::filesystem::path> monitor_token_file;
+  // The proof-of-play history (history.hpp): this database, else default_history_path(); none
+  // with no_history.
+  std::optional<std::filesystem::path> history;
+  bool no_history = false;
 };
 
 // A kind with its checked parameters.

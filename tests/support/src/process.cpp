@@ -70,6 +70,12 @@ Child::Child(ChildOptions options) : options_(std::move(options)) {
     if (options_.stdout_file.empty()) options_.stdout_file = own_dir_ / "stdout";
     if (options_.stderr_file.empty()) options_.stderr_file = own_dir_ / "stderr";
   }
+  // A run records into the history database of the user's data directory by default: a child
+  // gets the test's own, so no test touches the real home and parallel tests never share one
+  // unless a test sets XDG_DATA_HOME (or passes --history) to mean to.
+  if (options_.env.count("XDG_DATA_HOME") == 0) {
+    options_.env["XDG_DATA_HOME"] = (scratch_dir() / "xdg-data").string();
+  }
   if (options_.stop_after_write || options_.stop_after_handler_for) add_stop_shim(options_);
 
   // Everything the child needs is built before fork: after it, only async-signal-safe calls.

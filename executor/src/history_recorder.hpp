@@ -1,0 +1,58 @@
+#pragma once
+// The run's side of the history database (history.hpp): an observer that writes each visit as
+// it ends, one transaction a visit, with its proof image. A database that cannot be used ends
+// the recording, never the tour: a warning on stderr and a note in report.json.
+#include <cstdint>
+#include <filesystem>
+#include <iosfwd>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "projtour/clock.hpp"
+#include "projtour/mission.hpp"
+#include "projtour_executor/events.hpp"
+#include "projtour_executor/history.hpp"
+#include "projtour_executor/runner.hpp"
+
+namespace projtour {
+
+class HistoryRecorder : public ExecutorObserver {
+ public:
+  // nullptr with --no-history. `resume`: the run directory's row is reused, so a resumed run is
+  // one run and a visit resumed is one showing.
+  static std::unique_ptr<HistoryRecorder> start(const RunOptions& options,
+                                                const MissionSpec& mission,
+                                                const std::filesystem::path& run_dir,
+                                                std::uint64_t seed, const Clock& clock,
+                                                std::ostream& err);
+  void on_event(const ExecutorEvent& event) override;
+  void on_target_done(const TargetRecord& record) override;
+  // The run's end; the note of a recording that failed is added to `notes` (report.json).
+  void finish(const std::string& outcome, std::vector<std::string>& notes);
+
+  bool recording() const { return db_ != nullptr; }
+  const std::string& run_id() const { return run_.id; }
+
+ private:
+  HistoryRecorder(const Clock& clock, std::ostream& err) : clock_(clock), err_(err) {}
+  void fail(const std::string& what);
+  double unix_at(double mission_s) const;
+
+  const Clock& clock_;
+  const MissionSpec* mission_ = nullptr;
+  std::ostream& err_;
+  std::unique_ptr<HistoryDb> db_;
+  HistoryRun run_;
+  std::filesystem::path run_dir_;
+  // A dry run's times are the run's start plus mission time (its clock runs far faster than the
+  // wall's), so a rehearsed day spreads over its hours as the real one would.
+  double dry_base_unix_s_ = 0.0;
+  std::optional<std::string> visiting_;
+  double visit_start_unix_s_ = 0.0;
+  double visit_start_wall_s_ = 0.0;
+  std::string note_;
+};
+
+}  // namespace projtour
