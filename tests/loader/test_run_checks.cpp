@@ -1,6 +1,7 @@
 // The checks before a run (run_checks.hpp): every model opened, every content decoded, the Model
 // Points against the surface and the front, the stand-off against the robot and the head's
 // reach; each diagnostic exactly (file, line, column, field path, message).
+#include <algorithm>
 #include <fstream>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -232,10 +233,14 @@ TEST_F(ValidateCommand, AbsurdParticleCountExitsTwo) {
                             "2000000000}}"),
                     mission_text(bunny)),
             2);
-  // First of the diagnostics (the services it would have run are missing after it).
-  EXPECT_THAT(err, ::testing::StartsWith(dir + "/robot.yaml:121:63: "
-                                               "services.localization.params.particles: expected "
-                                               "from 10 to 1000000, got 2000000000\n"));
+  // First of the diagnostics (the services it would have run are missing after it), on the line
+  // of ud.yaml that names the service.
+  const std::string before = robot_text.substr(0, robot_text.find("localization: {kind:"));
+  const auto line = std::count(before.begin(), before.end(), '\n') + 1;
+  EXPECT_THAT(err, ::testing::StartsWith(dir + "/robot.yaml:" + std::to_string(line) +
+                                         ":63: "
+                                         "services.localization.params.particles: expected "
+                                         "from 10 to 1000000, got 2000000000\n"));
 }
 
 // The simulator crashed on a non-finite vertex once the run had started; now neither validate
