@@ -10,6 +10,9 @@
 // --duration-s or on SIGTERM. SIGUSR1 stops odom (the base's computer hangs) and keeps the rest.
 // Everything it says is one JSON object a line on stdout; diagnostics go to stderr.
 //
+// Two options show @foxglove/ros2 as it is, failing against projtour's drivers (run the test with
+// PROJTOUR_ROS2_PEER_ARGS="--no-qos-defaults" or "--subscribe-via rosnode"): below, at each.
+//
 // Nothing leaves the machine. @foxglove/rtps binds 0.0.0.0, joins 239.255.0.1 and sends its
 // participant announcement (SPDP) there; the sockets handed to it here bind 127.0.0.1 only,
 // never join a group (a join sends IGMP on the default interface), and send only to
