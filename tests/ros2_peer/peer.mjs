@@ -311,6 +311,10 @@ const node = new RosNode({
   },
 });
 const participant = node._participant;
+// @foxglove/rtps says it is Eclipse Cyclone DDS (vendor 0x0110) unless told otherwise, which
+// RosNode never does; Cyclone reads a vendor's own parameters only from that vendor. This peer
+// says "unknown vendor" (0x0000), so Cyclone treats it as the foreign implementation it is.
+participant.attributes.vendorId = rtps.VendorId.Unknown;
 
 // RTPS 2.x (9.6.2.2, tables 9.13 and 9.14): a reliability left out of an endpoint's discovery
 // data means RELIABLE for a writer (DiscoveredWriterData) and BEST_EFFORT for a reader. Cyclone
