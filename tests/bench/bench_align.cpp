@@ -8,8 +8,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <map>
 #include <memory>
 #include <random>
+#include <tuple>
 
 #include "../align/rendered_scenes.hpp"
 #include "pcl_registration.hpp"
@@ -115,6 +117,104 @@ void BM_pcl_icp(benchmark::State& state) {
 void BM_pcl_gicp(benchmark::State& state) {
   BM_pcl(state, align::PclMethod::gicp);
 }
+
+// Scaling: the projective ICP against model size, distance to the target (so the crop's size)
+// and initial error, one setting varied at a time from the main benchmark's (21,869 model
+// points, 1 m, 5 cm / 5 deg), on 20 frames rendered per setting. Counters as above, plus
+// scene_points: the crop's points the alignment read (the tiles near where the model landed).
+struct ScalingCase {
+  int model_points;
+  double distance_m;
+  double error_m;
+};
+
+const Fixture& scaling_fixture(const ScalingCase& s) {
+  static std::map<std::tuple<int, double, double>, std::unique_ptr<Fixture>> made;
+  auto& slot = made[{s.model_points, s.distance_m, s.error_m}];
+  if (slot) return *slot;
+  slot = std::make_unique<Fixture>();
+  const TriangleMesh mesh = load_mesh(PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply");
+  const IcpModel full(sample_mesh(mesh, 0.003));
+  // A prefix of the prepared model is a uniform subsample of it.
+  ModelCloud cloud;
+  const std::size_t n = std::min<std::size_t>(full.points().size(), s.model_points);
+  cloud.points.assign(full.points().begin(), full.points().begin() + n);
+  cloud.normals.assign(full.normals().begin(), full.normals().begin() + n);
+  cloud.bounding_radius_m = full.bounding_radius_m();
+  slot->model = std::make_shared<const IcpModel>(cloud);
+  std::mt19937 rng(2024);
+  std::uniform_real_distribution<double> yaw(-0.35, 0.35), height(0.1, 0.4), side(-0.1, 0.1);
+  for (int i = 0; i < 20; ++i) {
+    Case c;
+    c.truth = test::T_camera_model_facing(s.distance_m, height(rng) * s.distance_m) *
+              Eigen::AngleAxisd(yaw(rng), Eigen::Vector3d::UnitZ());
+    c.truth.translation().x() += side(rng) * s.distance_m;
+    c.frame = test::render_on_floor(mesh, c.truth, true, 700 + i);
+    c.guess = test::perturb(c.truth, s.error_m, deg_to_rad(5.0), rng);
+    slot->cases.push_back(std::move(c));
+  }
+  return *slot;
+}
+
+void run_scaling(benchmark::State& state, const ScalingCase& s) {
+  const Fixture& f = scaling_fixture(s);
+  std::size_t i = 0, scene_points = 0, alignments = 0;
+  std::vector<double> times_ms;
+  int successes = 0;
+  for (auto _ : state) {
+    const Case& c = f.cases[i++ % f.cases.size()];
+    const auto started = std::chrono::steady_clock::now();
+    const RegistrationResult r =
+        align_projective_icp(*f.model, c.frame, Eigen::Vector3d::Zero(), c.guess, kCropMarginM);
+    times_ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started)
+            .count());
+    benchmark::DoNotOptimize(r.T_camera_model);
+    scene_points += r.scene_points;
+    ++alignments;
+    if (translation_distance_m(r.T_camera_model, c.truth) <= 0.002 &&
+        rad_to_deg(rotation_angle_rad(r.T_camera_model, c.truth)) <= 0.2)
+      ++successes;
+  }
+  std::sort(times_ms.begin(), times_ms.end());
+  state.counters["median_ms"] = times_ms.empty() ? 0.0 : times_ms[times_ms.size() / 2];
+  state.counters["success_pct"] = alignments ? 100.0 * successes / alignments : 0.0;
+  state.counters["scene_points"] = alignments ? static_cast<double>(scene_points) / alignments : 0;
+}
+
+void BM_scaling_model_points(benchmark::State& state) {
+  run_scaling(state, {static_cast<int>(state.range(0)), 1.0, 0.05});
+}
+void BM_scaling_distance_cm(benchmark::State& state) {
+  run_scaling(state, {1 << 30, state.range(0) / 100.0, 0.05});
+}
+void BM_scaling_error_cm(benchmark::State& state) {
+  run_scaling(state, {1 << 30, 1.0, state.range(0) / 100.0});
+}
+
+BENCHMARK(BM_scaling_model_points)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(200)
+    ->Arg(1000)
+    ->Arg(2000)
+    ->Arg(5000)
+    ->Arg(10000)
+    ->Arg(20000);
+BENCHMARK(BM_scaling_distance_cm)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(200)
+    ->Arg(60)
+    ->Arg(100)
+    ->Arg(150)
+    ->Arg(200)
+    ->Arg(250);
+BENCHMARK(BM_scaling_error_cm)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(200)
+    ->Arg(1)
+    ->Arg(5)
+    ->Arg(10)
+    ->Arg(20);
 
 // Whole passes over the 50 frames, so every method sees exactly the same inputs.
 BENCHMARK(BM_projective_icp)->Unit(benchmark::kMillisecond)->Iterations(kFrames * 10);
