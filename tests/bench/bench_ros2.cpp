@@ -155,7 +155,7 @@ void bridge_round_trip(benchmark::State& state) {
         p, geometry_msgs_msg_dds__Twist__desc, dds_topic_name("", spec.cmd_vel.name),
         {spec.cmd_vel.reliable, spec.cmd_vel.depth, false});
     Writer<rosgraph_msgs_msg_dds__Clock_> clock(p, rosgraph_msgs_msg_dds__Clock__desc,
-                                                dds_topic_name("", "/clock"), {true, 10, false});
+                                                dds_topic_name("", "clock"), {true, 10, false});
     Reader<nav_msgs_msg_dds__Odometry_> odom(p, nav_msgs_msg_dds__Odometry__desc,
                                              dds_topic_name("", spec.odom.name),
                                              {spec.odom.reliable, spec.odom.depth, false});

@@ -326,5 +326,19 @@ TEST_F(Ros2Drivers, PanTiltCommandsPositionsAndReadsJointsByName) {
   states.join();
 }
 
+// Regression: the dry run's clock was the absolute /clock, so two simulated robots on one domain
+// (namespaces /ud1 and /ud2) each stepped their bridge by both tours' ticks (docs/fleet.md).
+TEST_F(Ros2Drivers, Regression_ADryRunsClockIsUnderTheRobotsNamespace) {
+  rig.mission.robot.ros2.ros2_namespace = "/ud1";
+  rig.run.dry_run = true;
+  params.set("startup_timeout_s", ParamValue(0.2));
+  try {
+    Ros2Base base(params, rig.run);
+    FAIL() << "no error without a bridge";
+  } catch (const DriverError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("no simulator (projtour-sim-ros2) reads rt/ud1/clock"));
+  }
+}
+
 }  // namespace
 }  // namespace projtour::ros2

@@ -46,13 +46,13 @@ Ros2Base::Ros2Base(const Params& params, const RunContext& run)
             {spec_.odom.reliable, spec_.odom.depth, false}) {
   if (run.dry_run) {
     clock_ = std::make_unique<Writer<rosgraph_msgs_msg_dds__Clock_>>(
-        participant_, rosgraph_msgs_msg_dds__Clock__desc, dds_topic_name("", "/clock"),
-        QosProfile{true, 10, false});
+        participant_, rosgraph_msgs_msg_dds__Clock__desc,
+        dds_topic_name(spec_.ros2_namespace, "clock"), QosProfile{true, 10, false});
     truth_ = std::make_unique<Reader<geometry_msgs_msg_dds__PoseStamped_>>(
         participant_, geometry_msgs_msg_dds__PoseStamped__desc,
         dds_topic_name(spec_.ros2_namespace, "projtour_sim/true_pose"),
         QosProfile{true, 10, false});
-    // The bridge answers each /clock with the odometry of that instant: wait until it hears us.
+    // The bridge answers each clock with the odometry of that instant: wait until it hears us.
     const auto deadline =
         SteadyClock::now() + std::chrono::duration<double>(startup_timeout_s(params));
     while (clock_->matched() == 0 && SteadyClock::now() < deadline) {

@@ -1,10 +1,10 @@
 // projtour-sim-ros2: the simulated base and laser of a dry run behind ROS 2 topics, so that a
 // tour can run its ros2_* drivers over DDS against the simulator (projtour run --dry-run
 // --ros2-bridge). It steps the same world a dry run would (same mission, world file and seed)
-// to each mission time the tour publishes on /clock: for each, the latest cmd_vel drives the
-// simulated wheels, then the scan (when one is due), the true base pose (for the tour's own
-// simulated cameras and projector, never for its behaviours) and last the odometry of that
-// instant go out, the odometry telling the tour that the step is done.
+// to each mission time the tour publishes on clock (under the namespace): for each, the latest
+// cmd_vel drives the simulated wheels, then the scan (when one is due), the true base pose (for the
+// tour's own simulated cameras and projector, never for its behaviours) and last the odometry of
+// that instant go out, the odometry telling the tour that the step is done.
 #include <cmath>
 #include <csignal>
 #include <iostream>
@@ -61,7 +61,8 @@ int run_bridge(const std::filesystem::path& mission_file,
 
   Participant participant(network_of(spec), "projtour_sim");
   Reader<rosgraph_msgs_msg_dds__Clock_> clock(participant, rosgraph_msgs_msg_dds__Clock__desc,
-                                              dds_topic_name("", "/clock"), {true, 100, false});
+                                              dds_topic_name(spec.ros2_namespace, "clock"),
+                                              {true, 100, false});
   Reader<geometry_msgs_msg_dds__Twist_> cmd_vel(
       participant, geometry_msgs_msg_dds__Twist__desc,
       dds_topic_name(spec.ros2_namespace, spec.cmd_vel.name),
