@@ -105,10 +105,18 @@ class Project : public Behaviour {
       return Outcome{kOutcomeCancelled, "cancelled while projecting"};
     }
     if (paused_) return std::nullopt;
+    // Per-frame timing while tracking, for the visit's summary (in its outcome's message).
+    const auto frame_started = std::chrono::steady_clock::now();
+    const auto since_ms = [](std::chrono::steady_clock::time_point t) {
+      return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t)
+          .count();
+    };
+    auto& stats = tracker_.stats();
     std::optional<DepthFrame> frame;
     if (guard_.armed() || tracking_) {
       try {
         frame = ctx.drivers().depth_camera->grab();
+        if (tracking_) stats.capture_ms.push_back(since_ms(frame_started));
       } catch (const DriverError& e) {
         if (guard_.armed()) {
           // Blind, the robot cannot keep anyone out of the light: dark is the safe state.
@@ -122,21 +130,26 @@ class Project : public Behaviour {
       }
     }
     if (frame && guard_.armed()) {
+      const auto beam_started = std::chrono::steady_clock::now();
       if (auto blocked = guard_beam(ctx, *frame)) return blocked;
+      if (tracking_) stats.beam_ms.push_back(since_ms(beam_started));
     }
     if (beam_blanked_) return std::nullopt;
     const double shown_s = elapsed_s(ctx);
     result_.shown_s = std::min(shown_s, dwell_s_);
     publish(ctx);
     if (shown_s >= dwell_s_) {
+      const std::string tracked = tracking_ ? "; tracking: " + stats.summary() : "";
       finish(ctx);
       std::ostringstream s;
       s.precision(1);
-      s << std::fixed << "projected on " << ctx.target->id << " for " << dwell_s_ << " s";
+      s << std::fixed << "projected on " << ctx.target->id << " for " << dwell_s_ << " s"
+        << tracked;
       return Outcome{"succeeded", s.str()};
     }
     if (tracking_ && frame) track(ctx, *frame);
     if (content_->is_video()) show_current(ctx, /*force=*/false);
+    if (tracking_ && frame) stats.frame_ms.push_back(since_ms(frame_started));
     return std::nullopt;
   }
 

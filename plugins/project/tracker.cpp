@@ -55,6 +55,10 @@ std::string TrackStats::summary() const {
   s << std::fixed << frames << " frames aligned, " << accepted << " passed the gate, " << rewarps
     << " re-warps; align median " << median(align_ms) << " ms (max " << maximum(align_ms)
     << "), re-warp median " << median(rewarp_ms) << " ms (max " << maximum(rewarp_ms) << ")";
+  if (!frame_ms.empty()) {
+    s << "; per frame median " << median(frame_ms) << " ms (max " << maximum(frame_ms)
+      << "): capture " << median(capture_ms) << ", beam watch " << median(beam_ms) << " ms";
+  }
   return s.str();
 }
 

@@ -43,6 +43,10 @@ struct TrackStats {
   int rewarps = 0;
   std::vector<double> align_ms;
   std::vector<double> rewarp_ms;
+  // Per camera frame while tracking: the grab, the beam watch and the whole tick's work.
+  std::vector<double> capture_ms;
+  std::vector<double> beam_ms;
+  std::vector<double> frame_ms;
   std::string summary() const;
 };
 

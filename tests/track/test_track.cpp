@@ -210,6 +210,13 @@ class DryRun {
       tick_started = std::chrono::steady_clock::now();
     });
     EXPECT_EQ(projected.name, "succeeded") << projected.message;
+    // The visit's tracking figures travel in its outcome, so events.jsonl has them per target.
+    if (track) {
+      EXPECT_NE(projected.message.find("; tracking: "), std::string::npos) << projected.message;
+      EXPECT_NE(projected.message.find("per frame median"), std::string::npos) << projected.message;
+    } else {
+      EXPECT_EQ(projected.message.find("tracking"), std::string::npos) << projected.message;
+    }
     return shown;
   }
 
