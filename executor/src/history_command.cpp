@@ -375,8 +375,10 @@ void write_history_page(const HistoryDb& db, const HistoryQuery& query,
     const std::string src = std::filesystem::relative(image, page_dir, ec).generic_string();
     h << "<figure><img class=\"proof\" src=\"" << html_escape(ec ? image.string() : src)
       << "\" alt=\"" << html_escape(s.content + " on " + s.target) << "\" data-sha256=\""
-      << s.proof_sha256 << "\"><figcaption>" << html_escape(s.content) << " on "
-      << html_escape(s.target) << ", " << utc_text(s.started_at_s) << " UTC"
+      << s.proof_sha256
+      << "\" onload=\"this.dataset.loaded=1\" onerror=\"this.dataset.loaded=0\"><figcaption>"
+      << html_escape(s.content) << " on " << html_escape(s.target) << ", "
+      << utc_text(s.started_at_s) << " UTC"
       << (s.round > 0 ? ", round " + std::to_string(s.round) : std::string()) << ", "
       << fixed(s.shown_s, 1) << " s, observed " << fixed(s.observed_error_mm, 2)
       << " mm</figcaption></figure>\n";

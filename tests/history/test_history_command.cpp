@@ -8,6 +8,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 #include <random>
 #include <sstream>
 #include <thread>
@@ -238,6 +239,43 @@ TEST_F(HistoryCommand, RoundsAreVisitsOfTheirOwn) {
   const Json j = parse_json(s.out, "stdout");
   ASSERT_EQ(j.at("rows").size(), 3u);
   for (const Json& row : j.at("rows")) EXPECT_EQ(row.at("showings"), 3) << row.dump();
+}
+
+// A dry run of the one-target mission: the showing has its proof, the colour camera's view with
+// the corners marked as a small JPEG beside the database, whose hash is the row's; the true error
+// is recorded beside the observed one, and the run counts only with --include-dry-runs.
+TEST_F(HistoryCommand, ADryRunsShowingHasItsProofImage) {
+  std::vector<std::string> args = {"run",
+                                   kSource + "/missions/minimal.yaml",
+                                   "--dry-run",
+                                   "--seed",
+                                   "1",
+                                   "--out",
+                                   (dir_ / "run").string(),
+                                   "--history",
+                                   db_.string()};
+  const test::RunResult r = projtour(args, "dry");
+  ASSERT_EQ(r.status, 0) << r.err;
+  HistoryDb db(db_, HistoryAccess::read_only);
+  const auto visits = db.visits();
+  ASSERT_EQ(visits.size(), 1u);
+  ASSERT_FALSE(visits[0].proof_path.empty());
+  EXPECT_TRUE(visits[0].observed_error_mm);
+  EXPECT_TRUE(visits[0].true_error_mm);
+  const std::string jpeg = read_text(dir_ / visits[0].proof_path);
+  ASSERT_GT(jpeg.size(), 1000u);
+  EXPECT_EQ(sha256_hex(std::vector<unsigned char>(jpeg.begin(), jpeg.end())),
+            visits[0].proof_sha256);
+  const cv::Mat image = cv::imread((dir_ / visits[0].proof_path).string());
+  EXPECT_EQ(image.cols, 320);
+  const test::RunResult real = projtour({"history", "--history", db_.string(), "--json"}, "real");
+  EXPECT_EQ(parse_json(real.out, "stdout").at("rows").size(), 0u) << real.out;
+  const test::RunResult all =
+      projtour({"history", "--history", db_.string(), "--json", "--include-dry-runs"}, "all");
+  const Json rows = parse_json(all.out, "stdout").at("rows");
+  ASSERT_EQ(rows.size(), 1u) << all.out;
+  EXPECT_EQ(rows[0].at("dry_run"), true);
+  EXPECT_TRUE(rows[0].at("median_true_mm").is_number());
 }
 
 // SIGKILL at seeded random moments, every run into one database: after each, the file passes

@@ -8,9 +8,12 @@
 
 #include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <regex>
 #include <sstream>
 
 #include "projtour_executor/history.hpp"
+#include "projtour_test/process.hpp"
 #include "projtour_test/temp_dir.hpp"
 
 namespace projtour {
@@ -328,6 +331,82 @@ TEST(HistoryDefaultPath, FollowsXdgDataHomeElseHome) {
   } else {
     ::unsetenv("XDG_DATA_HOME");
   }
+}
+
+std::string chromium_command() {
+  for (const char* candidate : {"/usr/bin/chromium", "/usr/bin/chromium-browser"}) {
+    if (::access(candidate, X_OK) == 0) return candidate;
+  }
+  return "";
+}
+
+// The page's final DOM in headless Chromium (each proof's onload/onerror marks it data-loaded).
+std::string dom_in_chromium(const fs::path& html, const fs::path& scratch) {
+  const fs::path profile = scratch / "chromium-profile";
+  fs::create_directories(profile);
+  test::ChildOptions chromium;
+  chromium.argv = {chromium_command(),
+                   "--headless",
+                   "--no-sandbox",
+                   "--disable-gpu",
+                   "--no-first-run",
+                   "--disable-background-networking",
+                   "--disable-component-update",
+                   "--disable-sync",
+                   "--user-data-dir=" + profile.string(),
+                   "--virtual-time-budget=5000",
+                   "--dump-dom",
+                   "file://" + fs::absolute(html).string()};
+  const test::RunResult r = test::run(chromium, std::chrono::seconds(60));
+  fs::remove_all(profile);
+  if (r.status != 0) throw std::runtime_error("chromium failed (" + std::to_string(r.status) + ")");
+  return r.out;
+}
+
+TEST(HistoryPage, ProofImagesLoadAndTotalsShowInHeadlessChromium) {
+  if (chromium_command().empty()) {
+    GTEST_SKIP() << "chromium is not installed (apt-get install chromium)";
+  }
+  test::TempDir dir;
+  const fs::path file = dir.path() / "db" / "h.sqlite";
+  HistoryDb db(file, HistoryAccess::read_write);
+  db.upsert_run(a_run("real", false));
+  const double day = *parse_history_time("2026-03-02");
+  for (int i = 0; i < 3; ++i) {
+    cv::Mat image(240, 320, CV_8UC3, cv::Scalar(40 * i, 90, 200));
+    std::vector<unsigned char> jpeg;
+    cv::imencode(".jpg", image, jpeg);
+    const StoredProof proof = store_proof(file, jpeg);
+    HistoryVisit v = a_visit("real", i + 1, "pillar", i == 2 ? "menu.png" : "sale.png",
+                             day + 3600 * (i + 1) + 86400 * (i / 2));
+    v.proof_path = proof.relative_path;
+    v.proof_sha256 = proof.sha256;
+    db.record_visit(v);
+  }
+  // The page elsewhere than the database: the images are found from the page's directory.
+  const fs::path page = dir.path() / "pages" / "history.html";
+  fs::create_directories(page.parent_path());
+  write_history_page(db, HistoryQuery{}, page);
+  const std::string dom = dom_in_chromium(page, dir.path());
+  const std::regex img(R"(<img\b[^>]*>)");
+  int loaded = 0, images = 0;
+  for (auto it = std::sregex_iterator(dom.begin(), dom.end(), img); it != std::sregex_iterator();
+       ++it) {
+    ++images;
+    if (it->str().find("data-loaded=\"1\"") != std::string::npos) ++loaded;
+  }
+  EXPECT_EQ(images, 3) << dom;
+  EXPECT_EQ(loaded, 3) << dom;
+  // The totals: sale.png twice, 20 s; menu.png once, 10 s.
+  EXPECT_NE(dom.find("<td class=\"shown\">20.0</td><td class=\"showings\">2</td>"),
+            std::string::npos)
+      << dom;
+  EXPECT_NE(dom.find("<td class=\"shown\">10.0</td><td class=\"showings\">1</td>"),
+            std::string::npos);
+  // A proof gone from the disk shows as not loaded.
+  fs::remove_all(proofs_dir_of(file));
+  const std::string broken = dom_in_chromium(page, dir.path());
+  EXPECT_EQ(broken.find("data-loaded=\"1\""), std::string::npos);
 }
 
 }  // namespace
