@@ -117,6 +117,23 @@ class Statement {
   std::filesystem::path file_;
 };
 
+// A runs row, from a query of kRunColumns.
+const char* const kRunColumns =
+    "SELECT id, mission, robot, run_dir, started_at, ended_at, dry_run, seed, outcome FROM runs ";
+HistoryRun run_from(const Statement& q) {
+  HistoryRun r;
+  r.id = q.text(0);
+  r.mission = q.text(1);
+  r.robot = q.text(2);
+  r.run_dir = q.text(3);
+  r.started_at_s = q.real(4);
+  r.ended_at_s = q.maybe(5);
+  r.dry_run = q.integer(6) != 0;
+  r.seed = static_cast<std::uint64_t>(q.integer(7));
+  r.outcome = q.text(8);
+  return r;
+}
+
 std::string hex(const unsigned char* bytes, std::size_t n) {
   static const char digits[] = "0123456789abcdef";
   std::string out;
@@ -252,43 +269,18 @@ void HistoryDb::migrate() {
 }
 
 std::optional<HistoryRun> HistoryDb::find_run_by_dir(const std::string& run_dir) const {
-  Statement q(db_,
-              "SELECT id, mission, robot, run_dir, started_at, ended_at, dry_run, seed, outcome "
-              "FROM runs WHERE run_dir = ?1 ORDER BY started_at DESC LIMIT 1",
+  Statement q(db_, std::string(kRunColumns) + "WHERE run_dir = ?1 ORDER BY started_at DESC LIMIT 1",
               file_);
   q.bind(1, run_dir);
   if (!q.step()) return std::nullopt;
-  HistoryRun r;
-  r.id = q.text(0);
-  r.mission = q.text(1);
-  r.robot = q.text(2);
-  r.run_dir = q.text(3);
-  r.started_at_s = q.real(4);
-  r.ended_at_s = q.maybe(5);
-  r.dry_run = q.integer(6) != 0;
-  r.seed = static_cast<std::uint64_t>(q.integer(7));
-  r.outcome = q.text(8);
-  return r;
+  return run_from(q);
 }
 
 std::vector<HistoryRun> HistoryDb::runs() const {
-  Statement q(db_,
-              "SELECT id, mission, robot, run_dir, started_at, ended_at, dry_run, seed, outcome "
-              "FROM runs ORDER BY started_at",
-              file_);
+  Statement q(db_, std::string(kRunColumns) + "ORDER BY started_at", file_);
   std::vector<HistoryRun> out;
   while (q.step()) {
-    HistoryRun r;
-    r.id = q.text(0);
-    r.mission = q.text(1);
-    r.robot = q.text(2);
-    r.run_dir = q.text(3);
-    r.started_at_s = q.real(4);
-    r.ended_at_s = q.maybe(5);
-    r.dry_run = q.integer(6) != 0;
-    r.seed = static_cast<std::uint64_t>(q.integer(7));
-    r.outcome = q.text(8);
-    out.push_back(std::move(r));
+    out.push_back(run_from(q));
   }
   return out;
 }
