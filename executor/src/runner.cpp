@@ -447,12 +447,12 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
   executor.add_observer(&trace);
   executor.add_observer(&events);
   executor.add_observer(&progress);
-  executor.add_observer(&checkpoint_hook);
-  // After the checkpoint's hook: a visit recorded is one the checkpoint holds or will redo, and
-  // the redone visit replaces its row.
+  // Before the checkpoint's hook: a visit the checkpoint holds is in the history, and one killed
+  // between the two is visited again on resume and its row replaced.
   const std::unique_ptr<HistoryRecorder> history =
       HistoryRecorder::start(options, mission, run_dir, seed, clock, err);
   if (history) executor.add_observer(history.get());
+  executor.add_observer(&checkpoint_hook);
   bool stopping = false;  // a stop was asked for: the tour winds down unpaced
   std::optional<MonitorPublisher> publisher;
   if (monitor) {

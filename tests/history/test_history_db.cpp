@@ -9,10 +9,10 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
-#include <regex>
 #include <sstream>
 
 #include "projtour_executor/history.hpp"
+#include "projtour_test/chromium.hpp"
 #include "projtour_test/process.hpp"
 #include "projtour_test/temp_dir.hpp"
 
@@ -333,35 +333,8 @@ TEST(HistoryDefaultPath, FollowsXdgDataHomeElseHome) {
   }
 }
 
-std::string chromium_command() {
-  for (const char* candidate : {"/usr/bin/chromium", "/usr/bin/chromium-browser"}) {
-    if (::access(candidate, X_OK) == 0) return candidate;
-  }
-  return "";
-}
-
-// The page's final DOM in headless Chromium (each proof's onload/onerror marks it data-loaded).
-std::string dom_in_chromium(const fs::path& html, const fs::path& scratch) {
-  const fs::path profile = scratch / "chromium-profile";
-  fs::create_directories(profile);
-  test::ChildOptions chromium;
-  chromium.argv = {chromium_command(),
-                   "--headless",
-                   "--no-sandbox",
-                   "--disable-gpu",
-                   "--no-first-run",
-                   "--disable-background-networking",
-                   "--disable-component-update",
-                   "--disable-sync",
-                   "--user-data-dir=" + profile.string(),
-                   "--virtual-time-budget=5000",
-                   "--dump-dom",
-                   "file://" + fs::absolute(html).string()};
-  const test::RunResult r = test::run(chromium, std::chrono::seconds(60));
-  fs::remove_all(profile);
-  if (r.status != 0) throw std::runtime_error("chromium failed (" + std::to_string(r.status) + ")");
-  return r.out;
-}
+using test::chromium_command;
+using test::dom_in_chromium;
 
 TEST(HistoryPage, ProofImagesLoadAndTotalsShowInHeadlessChromium) {
   if (chromium_command().empty()) {
@@ -388,12 +361,10 @@ TEST(HistoryPage, ProofImagesLoadAndTotalsShowInHeadlessChromium) {
   fs::create_directories(page.parent_path());
   write_history_page(db, HistoryQuery{}, page);
   const std::string dom = dom_in_chromium(page, dir.path());
-  const std::regex img(R"(<img\b[^>]*>)");
   int loaded = 0, images = 0;
-  for (auto it = std::sregex_iterator(dom.begin(), dom.end(), img); it != std::sregex_iterator();
-       ++it) {
+  for (const test::LoadedImage& image : test::images_of(dom)) {
     ++images;
-    if (it->str().find("data-loaded=\"1\"") != std::string::npos) ++loaded;
+    if (image.loaded == "1") ++loaded;
   }
   EXPECT_EQ(images, 3) << dom;
   EXPECT_EQ(loaded, 3) << dom;

@@ -12,6 +12,7 @@
 
 #include "projtour_executor/atomic_file.hpp"
 #include "projtour_executor/summary_page.hpp"
+#include "projtour_test/chromium.hpp"
 #include "projtour_test/process.hpp"
 #include "projtour_test/temp_dir.hpp"
 
@@ -197,54 +198,11 @@ TEST_F(SummaryPageTest, GroupsAScheduledRunByRound) {
 
 // --- in a real browser -----------------------------------------------------------------------
 
-std::string chromium_command() {
-  for (const char* candidate : {"/usr/bin/chromium", "/usr/bin/chromium-browser"}) {
-    if (::access(candidate, X_OK) == 0) return candidate;
-  }
-  return "";
-}
-
-struct LoadedImage {
-  std::string src;
-  std::string loaded;  // "1", "0", or "" when the browser never reported
-};
+using test::chromium_command;
 
 // Opens the page in headless Chromium and reads each <img>'s data-loaded from the final DOM.
-std::vector<LoadedImage> load_in_chromium(const fs::path& html, const fs::path& scratch) {
-  const fs::path profile = scratch / "chromium-profile";
-  fs::create_directories(profile);
-  test::ChildOptions chromium;
-  chromium.argv = {chromium_command(),
-                   "--headless",
-                   "--no-sandbox",
-                   "--disable-gpu",
-                   "--disable-quic",
-                   "--no-first-run",
-                   "--disable-background-networking",
-                   "--disable-component-update",
-                   "--disable-sync",
-                   "--user-data-dir=" + profile.string(),
-                   "--virtual-time-budget=5000",
-                   "--dump-dom",
-                   "file://" + html.string()};
-  const test::RunResult r = test::run(chromium, std::chrono::seconds(60));
-  fs::remove_all(profile);
-  if (r.status != 0) throw std::runtime_error("chromium failed (" + std::to_string(r.status) + ")");
-  const std::string& dom = r.out;
-  std::vector<LoadedImage> images;
-  const std::regex img(R"(<img\b[^>]*>)");
-  const std::regex src(R"re(\bsrc="([^"]*)")re");
-  const std::regex loaded(R"re(\bdata-loaded="([^"]*)")re");
-  for (auto it = std::sregex_iterator(dom.begin(), dom.end(), img); it != std::sregex_iterator();
-       ++it) {
-    const std::string tag = it->str();
-    std::smatch m;
-    LoadedImage image;
-    if (std::regex_search(tag, m, src)) image.src = m[1];
-    if (std::regex_search(tag, m, loaded)) image.loaded = m[1];
-    images.push_back(image);
-  }
-  return images;
+std::vector<test::LoadedImage> load_in_chromium(const fs::path& html, const fs::path& scratch) {
+  return test::images_of(test::dom_in_chromium(html, scratch));
 }
 
 TEST_F(SummaryPageTest, EveryImageLoadsInHeadlessChromium) {
