@@ -316,6 +316,12 @@ TEST_F(HistoryCommand, KilledAtRandomMomentsTheDatabaseStaysWhole) {
     child->signal(SIGKILL);
     child->wait(std::chrono::seconds(30));
     EXPECT_EQ(query(db_, "PRAGMA integrity_check"), std::vector<std::string>{"ok"}) << kill;
+    // Killed before the recorder had made its schema (the first run into the file): nothing was
+    // recorded, and an empty file is whole.
+    if (query(db_, "SELECT count(*) FROM sqlite_master WHERE name = 'visits'") ==
+        std::vector<std::string>{"0"}) {
+      continue;
+    }
     EXPECT_EQ(query(db_,
                     "SELECT count(*) FROM visits v LEFT JOIN runs r ON r.id = v.run_id WHERE "
                     "r.id IS NULL OR v.outcome NOT IN ('projected', 'skipped', 'failed', "
