@@ -54,6 +54,7 @@ std::unique_ptr<HistoryRecorder> HistoryRecorder::start(const RunOptions& option
   std::unique_ptr<HistoryRecorder> recorder(new HistoryRecorder(clock, err));
   recorder->mission_ = &mission;
   const std::filesystem::path file = options.history ? *options.history : default_history_path();
+  recorder->file_ = file;
   if (file.empty()) {
     recorder->fail("no history file: neither XDG_DATA_HOME nor HOME is set (--history FILE)");
     return recorder;
@@ -88,6 +89,7 @@ std::unique_ptr<HistoryRecorder> HistoryRecorder::start(const RunOptions& option
 
 void HistoryRecorder::fail(const std::string& what) {
   db_.reset();
+  std::lock_guard<std::mutex> lock(note_mutex_);
   if (!note_.empty()) return;
   note_ = "history: not recorded from here on: " + what;
   err_ << "projtour: warning: " << note_ << "\n";
@@ -157,6 +159,25 @@ void HistoryRecorder::finish(const std::string& outcome, std::vector<std::string
       db_->upsert_run(run_);
     } catch (const std::exception& e) {
       fail(e.what());
+    }
+  }
+  std::lock_guard<std::mutex> lock(note_mutex_);
+  if (!note_.empty()) notes.push_back(note_);
+}
+
+void HistoryRecorder::finish_after_hang(const std::string& outcome, double mission_s,
+                                        std::vector<std::string>& notes, int busy_timeout_ms) {
+  std::lock_guard<std::mutex> lock(note_mutex_);
+  // A recording already ended has said so; its row is as its last write left it.
+  if (note_.empty()) {
+    HistoryRun run = run_;
+    run.outcome = outcome;
+    run.ended_at_s = unix_at(mission_s);
+    try {
+      HistoryDb(file_, HistoryAccess::read_write, busy_timeout_ms).upsert_run(run);
+    } catch (const std::exception& e) {
+      note_ = std::string("history: the run's end not recorded: ") + e.what();
+      err_ << "projtour: warning: " << note_ << "\n";
     }
   }
   if (!note_.empty()) notes.push_back(note_);

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <iosfwd>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -31,6 +32,11 @@ class HistoryRecorder : public ExecutorObserver {
   void on_target_done(const TargetRecord& record) override;
   // The run's end; the note of a recording that failed is added to `notes` (report.json).
   void finish(const std::string& outcome, std::vector<std::string>& notes);
+  // The run's end when a step hung (the watchdog's thread, the tick thread stuck, perhaps inside
+  // this recorder's own write): the row is ended through a connection of its own that waits at
+  // most `busy_timeout_ms`, so the run does not stay `running` for ever.
+  void finish_after_hang(const std::string& outcome, double mission_s,
+                         std::vector<std::string>& notes, int busy_timeout_ms);
 
   bool recording() const { return db_ != nullptr; }
   const std::string& run_id() const { return run_.id; }
@@ -44,6 +50,9 @@ class HistoryRecorder : public ExecutorObserver {
   const MissionSpec* mission_ = nullptr;
   std::ostream& err_;
   std::unique_ptr<HistoryDb> db_;
+  std::filesystem::path file_;
+  // run_ is written only by start and finish, on the tick thread, so the watchdog's thread may
+  // read it; note_ is shared with that thread.
   HistoryRun run_;
   std::filesystem::path run_dir_;
   // A dry run's times are the run's start plus mission time (its clock runs far faster than the
@@ -52,6 +61,7 @@ class HistoryRecorder : public ExecutorObserver {
   std::optional<std::string> visiting_;
   double visit_start_unix_s_ = 0.0;
   double visit_start_wall_s_ = 0.0;
+  std::mutex note_mutex_;
   std::string note_;
 };
 

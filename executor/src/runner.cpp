@@ -145,6 +145,8 @@ class VisitToTruth : public ExecutorObserver {
 // How long the watchdog waits for the drivers' safe stops before it writes the report and ends
 // the process anyway (a safe_stop stuck behind the hung call must not keep the report unwritten).
 constexpr std::chrono::seconds kWatchdogSafeStopWait{2};
+// How long it waits on the history database's lock to end the run's row there.
+constexpr std::chrono::milliseconds kWatchdogHistoryWait{1000};
 
 // Safe-stops every driver from a thread of its own; false when they did not all return within
 // `wait`. The thread is left behind then, for the process exit to end.
@@ -541,6 +543,10 @@ int run_command(const RunOptions& options, std::ostream& out, std::ostream& err)
         << (stopped
                 ? "; safe stop done\n"
                 : "; SAFE STOP DID NOT COMPLETE within 2 s: a driver is stuck, cut its power\n");
+    if (history) {
+      history->finish_after_hang(to_string(TourOutcome::aborted), last.mission_s, summary.notes,
+                                 static_cast<int>(kWatchdogHistoryWait.count()));
+    }
     // Bounded: a step hung inside its own checkpoint write (a stalled disk) holds the lock, and
     // the report still matters more. Never unlocked: the process ends here.
     if (!files_mutex.try_lock_for(kWatchdogSafeStopWait)) {

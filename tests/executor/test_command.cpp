@@ -15,6 +15,7 @@
 #include "projtour/plugin_loader.hpp"
 #include "projtour/run_files.hpp"
 #include "projtour_executor/executor.hpp"
+#include "projtour_executor/history.hpp"
 #include "projtour_executor/json_io.hpp"
 #include "projtour_test/process.hpp"
 #include "projtour_test/run_files.hpp"
@@ -382,7 +383,9 @@ TEST_F(Command, WatchdogEndsABehaviourHungInTick) {
                   "failed: skip_target, timeout: skip_target}");
   const fs::path mission = write_mission(machine);
   const auto started = std::chrono::steady_clock::now();
-  ASSERT_EQ(projtour("run " + mission.string() + " --speed 1000 --out " + (dir_ / "run").string()),
+  const fs::path history = dir_ / "history.sqlite";
+  ASSERT_EQ(projtour("run " + mission.string() + " --speed 1000 --out " + (dir_ / "run").string() +
+                     " --history " + history.string()),
             1)
       << err();
   const double waited_s =
@@ -398,6 +401,12 @@ TEST_F(Command, WatchdogEndsABehaviourHungInTick) {
   for (const char* d : {"test_base", "test_projector", "test_pan_tilt"}) {
     EXPECT_NE(safe_stops.find(std::string(d) + " safe_stop"), std::string::npos) << d;
   }
+  // Regression: the history's row of a run the watchdog ended stayed `running`.
+  HistoryDb db(history, HistoryAccess::read_only);
+  ASSERT_EQ(db.runs().size(), 1u);
+  EXPECT_EQ(db.runs()[0].outcome, "aborted");
+  EXPECT_TRUE(db.runs()[0].ended_at_s.has_value());
+  EXPECT_EQ(db.visits().size(), 1u);  // the first target's
 }
 
 TEST_F(Command, BehaviourIgnoringCancelIsNamedAndStillSafeStopped) {

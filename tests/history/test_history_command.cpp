@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sqlite3.h>
+#include <sys/stat.h>
 
 #include <chrono>
 #include <filesystem>
@@ -15,6 +16,7 @@
 
 #include "projtour_executor/history.hpp"
 #include "projtour_executor/json_io.hpp"
+#include "projtour_test/file_modes.hpp"
 #include "projtour_test/process.hpp"
 #include "projtour_test/run_files.hpp"
 #include "projtour_test/temp_dir.hpp"
@@ -186,6 +188,50 @@ TEST_F(HistoryCommand, ABadDatabaseEndsTheRecordingNotTheTour) {
   ASSERT_EQ(newer.status, 0) << newer.err;
   EXPECT_NE(newer.err.find("is newer than this projtour knows"), std::string::npos) << newer.err;
   EXPECT_EQ(read_text(db_), before);
+}
+
+// A database another writer holds locked for the whole run: the run waits its busy timeout out
+// (10 s) at the start, then tours unrecorded, said on stderr and in the report.
+TEST_F(HistoryCommand, ALockedDatabaseEndsTheRecordingNotTheTour) {
+  const fs::path mission = write_mission();
+  { HistoryDb db(db_, HistoryAccess::read_write); }
+  sqlite3* holder = nullptr;
+  ASSERT_EQ(sqlite3_open(db_.c_str(), &holder), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(holder, "BEGIN EXCLUSIVE", nullptr, nullptr, nullptr), SQLITE_OK);
+  const test::RunResult r = projtour(run_args(mission, dir_ / "run"), "run");
+  sqlite3_exec(holder, "COMMIT", nullptr, nullptr, nullptr);
+  sqlite3_close(holder);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string locked = db_.string() + ": locked by another writer past the busy timeout";
+  EXPECT_NE(r.err.find("warning: history: not recorded from here on: " + locked), std::string::npos)
+      << r.err;
+  const Json report = read_json_file(dir_ / "run" / "report.json");
+  EXPECT_NE(report.value("notes", Json::array()).dump().find(locked), std::string::npos)
+      << report.dump();
+  EXPECT_EQ(query(db_, "SELECT count(*) FROM runs"), std::vector<std::string>{"0"});
+}
+
+// Regression: the read-only case was tested only below the command, and skipped as root (CI).
+TEST_F(HistoryCommand, AReadOnlyDatabaseEndsTheRecordingNotTheTour) {
+  const fs::path mission = write_mission();
+  { HistoryDb db(db_, HistoryAccess::read_write); }
+  ::chmod(db_.c_str(), 0444);
+  test::ChildOptions run = command(run_args(mission, dir_ / "run"), "run");
+  std::string why;
+  const auto bound = test::with_file_modes_binding(run.argv, why);
+  if (!bound) GTEST_SKIP() << why;
+  run.argv = *bound;
+  const test::RunResult r = test::run(run, std::chrono::seconds(120));
+  ::chmod(db_.c_str(), 0644);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string read_only = db_.string() + ": read-only: the run cannot record into it";
+  EXPECT_NE(r.err.find("warning: history: not recorded from here on: " + read_only),
+            std::string::npos)
+      << r.err;
+  const Json report = read_json_file(dir_ / "run" / "report.json");
+  EXPECT_NE(report.value("notes", Json::array()).dump().find(read_only), std::string::npos)
+      << report.dump();
+  EXPECT_EQ(query(db_, "SELECT count(*) FROM runs"), std::vector<std::string>{"0"});
 }
 
 TEST_F(HistoryCommand, NoHistoryWritesNoneAndTheDefaultFollowsXdgDataHome) {

@@ -6,13 +6,16 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
 #include "projtour_executor/history.hpp"
 #include "projtour_test/chromium.hpp"
+#include "projtour_test/file_modes.hpp"
 #include "projtour_test/process.hpp"
 #include "projtour_test/temp_dir.hpp"
 
@@ -134,11 +137,33 @@ TEST(HistoryDb, ACorruptFileIsAnErrorNamingIt) {
   }
 }
 
-TEST(HistoryDb, AReadOnlyFileCannotBeRecordedIntoButCanBeRead) {
-  if (::geteuid() == 0) {
-    // root writes through a file's mode; the directory's mode stops no one either.
-    GTEST_SKIP() << "file modes do not stop root";
+// Runs `check` in a forked child whose file modes bind (root's overrides given up) and returns
+// its exit status: 0 when it held, kCannotDrop when this machine cannot drop them, else the
+// failing step (what failed is on stderr).
+constexpr int kCannotDrop = 77;
+template <class Check>
+int in_child_bound_by_file_modes(Check check) {
+  const pid_t child = ::fork();
+  if (child == 0) {
+    int status = kCannotDrop;
+    if (test::give_up_file_mode_override()) {
+      try {
+        status = check();
+      } catch (const std::exception& e) {
+        std::cerr << "unexpected: " << e.what() << "\n";
+        status = 99;
+      }
+    }
+    std::cerr.flush();
+    ::_exit(status);
   }
+  int status = 0;
+  if (child < 0 || ::waitpid(child, &status, 0) != child) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// Regression: this test skipped as root, CI's user, so it had never run there.
+TEST(HistoryDb, AReadOnlyFileCannotBeRecordedIntoButCanBeRead) {
   test::TempDir dir;
   const fs::path file = dir.path() / "h.sqlite";
   {
@@ -146,8 +171,82 @@ TEST(HistoryDb, AReadOnlyFileCannotBeRecordedIntoButCanBeRead) {
     db.upsert_run(a_run("r1"));
   }
   ::chmod(file.c_str(), 0444);
-  EXPECT_THROW(HistoryDb(file, HistoryAccess::read_write), HistoryError);
+  const std::string before = bytes_of(file);
+  const int status = in_child_bound_by_file_modes([&] {
+    try {
+      HistoryDb db(file, HistoryAccess::read_write);
+      std::cerr << "a read-only file was opened to record into\n";
+      return 1;
+    } catch (const HistoryError& e) {
+      const std::string what = e.what();
+      if (what.find(file.string() + ": read-only") == std::string::npos) {
+        std::cerr << "not named read-only: " << what << "\n";
+        return 2;
+      }
+    }
+    HistoryDb db(file, HistoryAccess::read_only);
+    return db.runs().size() == 1 ? 0 : 3;
+  });
   ::chmod(file.c_str(), 0644);
+  if (status == kCannotDrop) GTEST_SKIP() << "root's file-mode override cannot be dropped here";
+  EXPECT_EQ(status, 0);
+  EXPECT_EQ(bytes_of(file), before);
+}
+
+TEST(HistoryDb, AnUnreadableFileIsAnErrorNamingIt) {
+  test::TempDir dir;
+  const fs::path file = dir.path() / "h.sqlite";
+  {
+    HistoryDb db(file, HistoryAccess::read_write);
+    db.upsert_run(a_run("r1"));
+  }
+  ::chmod(file.c_str(), 0);
+  const int status = in_child_bound_by_file_modes([&] {
+    for (const HistoryAccess access : {HistoryAccess::read_write, HistoryAccess::read_only}) {
+      try {
+        HistoryDb db(file, access);
+        std::cerr << "an unreadable file was opened\n";
+        return 1;
+      } catch (const HistoryError& e) {
+        if (std::string(e.what()).find(file.string() + ": cannot open") == std::string::npos) {
+          std::cerr << "not named: " << e.what() << "\n";
+          return 2;
+        }
+      }
+    }
+    return 0;
+  });
+  ::chmod(file.c_str(), 0644);
+  if (status == kCannotDrop) GTEST_SKIP() << "root's file-mode override cannot be dropped here";
+  EXPECT_EQ(status, 0);
+}
+
+// Another writer holding the lock past the busy timeout: the visit is an error naming the file
+// and the lock, after waiting the timeout out; once the lock is let go, recording goes on.
+TEST(HistoryDb, ALockedDatabaseWaitsItsBusyTimeoutThenIsAnErrorNamingIt) {
+  test::TempDir dir;
+  const fs::path file = dir.path() / "h.sqlite";
+  constexpr int kBusyTimeoutMs = 300;
+  HistoryDb db(file, HistoryAccess::read_write, kBusyTimeoutMs);
+  db.upsert_run(a_run("r1"));
+  sqlite3* holder = nullptr;
+  ASSERT_EQ(sqlite3_open(file.c_str(), &holder), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(holder, "BEGIN EXCLUSIVE", nullptr, nullptr, nullptr), SQLITE_OK);
+  const auto before = std::chrono::steady_clock::now();
+  try {
+    db.record_visit(a_visit("r1", 0, "pillar", "a.png", 1.7e9));
+    ADD_FAILURE() << "recorded through another writer's lock";
+  } catch (const HistoryError& e) {
+    EXPECT_NE(std::string(e.what()).find(file.string() + ": locked by another writer past the "
+                                                         "busy timeout"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_GE(std::chrono::steady_clock::now() - before, std::chrono::milliseconds(kBusyTimeoutMs));
+  ASSERT_EQ(sqlite3_exec(holder, "COMMIT", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(holder);
+  db.record_visit(a_visit("r1", 0, "pillar", "a.png", 1.7e9));
+  EXPECT_EQ(db.visits().size(), 1u);
 }
 
 TEST(HistoryDb, AReadOnlyOpenWritesNothing) {
