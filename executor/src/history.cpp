@@ -11,8 +11,6 @@
 #include <ctime>
 #include <fstream>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <system_error>
 
 namespace projtour {
@@ -428,19 +426,6 @@ StoredProof store_proof(const std::filesystem::path& db, const std::vector<unsig
   std::filesystem::rename(part, file, ec);
   if (ec) throw HistoryError(file.string() + ": cannot write the proof image: " + ec.message());
   return proof;
-}
-
-std::vector<unsigned char> proof_jpeg_from(const std::filesystem::path& picture, int width_px) {
-  const cv::Mat image = cv::imread(picture.string(), cv::IMREAD_COLOR);
-  if (image.empty()) return {};
-  cv::Mat small = image;
-  if (image.cols > width_px) {
-    const int height = std::max(1, image.rows * width_px / image.cols);
-    cv::resize(image, small, cv::Size(width_px, height), 0, 0, cv::INTER_AREA);
-  }
-  std::vector<unsigned char> jpeg;
-  cv::imencode(".jpg", small, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80});
-  return jpeg;
 }
 
 }  // namespace projtour

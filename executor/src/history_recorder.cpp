@@ -3,11 +3,15 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <ostream>
 #include <random>
 
+#include "projtour_executor/history_proof.hpp"
 #include "projtour_executor/target_record.hpp"
 
 namespace projtour {
@@ -44,6 +48,19 @@ std::optional<double> modified_unix_s(const std::filesystem::path& file) {
 }
 
 }  // namespace
+
+std::vector<unsigned char> proof_jpeg_from(const std::filesystem::path& picture, int width_px) {
+  const cv::Mat image = cv::imread(picture.string(), cv::IMREAD_COLOR);
+  if (image.empty()) return {};
+  cv::Mat small = image;
+  if (image.cols > width_px) {
+    const int height = std::max(1, image.rows * width_px / image.cols);
+    cv::resize(image, small, cv::Size(width_px, height), 0, 0, cv::INTER_AREA);
+  }
+  std::vector<unsigned char> jpeg;
+  cv::imencode(".jpg", small, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80});
+  return jpeg;
+}
 
 std::unique_ptr<HistoryRecorder> HistoryRecorder::start(const RunOptions& options,
                                                         const MissionSpec& mission,

@@ -3,3 +3,5 @@
 find_package(SQLite3 REQUIRED)
 projtour_add_bench(bench_history SOURCES ${CMAKE_CURRENT_LIST_DIR}/bench_history.cpp
   LIBS SQLite::SQLite3)
+# BM_MonthSummaryCommand runs the command itself.
+add_dependencies(bench_history projtour)

@@ -5,8 +5,13 @@
 // holding `range(0)` days, each visit as the recorder does it (proof image made from a 640x480
 // colour view, stored by its SHA-256, one transaction). Its counters: the database and the proof
 // images after the last day, per day. BM_MonthSummary is `projtour history`'s per-content
-// summary over 30 such days (the target: at most 200 ms), BM_MonthPage the --html page.
+// summary over 30 such days (the target: at most 200 ms), BM_MonthSummaryCommand the same as the
+// whole command in a process of its own, BM_MonthPage the --html page.
 #include <benchmark/benchmark.h>
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdlib>
@@ -17,6 +22,8 @@
 #include <sstream>
 
 #include "projtour_executor/history.hpp"
+#include "projtour_executor/history_proof.hpp"
+#include "projtour_test/process.hpp"
 #include "projtour_test/temp_dir.hpp"
 
 namespace projtour {
@@ -207,6 +214,37 @@ void BM_MonthSummary(benchmark::State& state) {
   state.counters["proof_bytes"] = static_cast<double>(bytes_under(proofs_dir_of(m.file)));
 }
 BENCHMARK(BM_MonthSummary)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// The whole `projtour history` command over the month, as a person or a dashboard's script
+// runs it: a process started, the launcher loaded, the database opened and summed, the table
+// printed (to /dev/null), the process gone.
+void BM_MonthSummaryCommand(benchmark::State& state) {
+  const Month& m = month();
+  const std::string exe = test::projtour_binary().string();
+  std::vector<std::string> args = {exe,      "history",    "--history", m.file.string(),
+                                   "--from", "2026-03-01", "--to",      "2026-03-30"};
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t quiet;
+  posix_spawn_file_actions_init(&quiet);
+  posix_spawn_file_actions_addopen(&quiet, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
+  for (auto _ : state) {
+    pid_t child = 0;
+    if (posix_spawn(&child, exe.c_str(), &quiet, nullptr, argv.data(), environ) != 0) {
+      state.SkipWithError("cannot start projtour");
+      break;
+    }
+    int status = 0;
+    if (::waitpid(child, &status, 0) != child || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+      state.SkipWithError("projtour history failed");
+      break;
+    }
+  }
+  posix_spawn_file_actions_destroy(&quiet);
+}
+// Real time: the work is the child's, the benchmark's own CPU time only the spawn and the wait.
+BENCHMARK(BM_MonthSummaryCommand)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 void BM_MonthPage(benchmark::State& state) {
   const Month& m = month();

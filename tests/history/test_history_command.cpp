@@ -143,6 +143,34 @@ TEST_F(HistoryCommand, ARunRecordsItsVisitsAndEveryFormatSumsThemUp) {
   EXPECT_NE(none.out.find("(no visits in the range)"), std::string::npos) << none.out;
 }
 
+// The launcher alone, without the module beside it: `history` still runs (it never loads the
+// robot's libraries), every other command names the module it cannot find.
+TEST_F(HistoryCommand, TheLauncherAloneRunsHistoryAndNamesTheModuleItLacks) {
+  const fs::path mission = write_mission();
+  ASSERT_EQ(projtour(run_args(mission, dir_ / "run"), "run").status, 0);
+  const fs::path alone = dir_ / "bin" / "projtour";
+  fs::create_directories(alone.parent_path());
+  fs::copy_file(test::projtour_binary(), alone);
+
+  test::ChildOptions history = command({"history", "--history", db_.string(), "--csv"}, "alone");
+  history.argv[0] = alone.string();
+  const test::RunResult h = test::run(history, std::chrono::seconds(60));
+  ASSERT_EQ(h.status, 0) << h.err;
+  EXPECT_NE(h.out.find("\ncontent.png,0,"), std::string::npos) << h.out;
+
+  test::ChildOptions plugins = command({"plugins"}, "alone_plugins");
+  plugins.argv[0] = alone.string();
+  const test::RunResult p = test::run(plugins, std::chrono::seconds(60));
+  EXPECT_EQ(p.status, 1);
+  EXPECT_NE(p.err.find("projtour: the projtour installation is incomplete: no command module at " +
+                       dir_.string()),
+            std::string::npos)
+      << p.err;
+  // Both places it looks, the installed layout's and the build tree's.
+  EXPECT_NE(p.err.find("/projtour/libprojtour_cli.so, " + dir_.string()), std::string::npos)
+      << p.err;
+}
+
 TEST_F(HistoryCommand, AMalformedTimeRangeIsExit2NamingTheOption) {
   HistoryDb(db_, HistoryAccess::read_write);
   for (const char* option : {"--from", "--to"}) {

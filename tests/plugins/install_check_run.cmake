@@ -13,9 +13,22 @@ function(run_step what)
   set(step_output "${out}${err}" PARENT_SCOPE)
 endfunction()
 
+# The shared libraries `binary` names (its NEEDED list), into `out`.
+function(needed_libraries binary out)
+  run_step("reading the NEEDED list of ${binary}" ${READELF} -d ${binary})
+  string(REGEX MATCHALL "\\(NEEDED\\)[^\n]*\\[([^]]*)\\]" needed_lines "${step_output}")
+  set(needed "")
+  foreach(line ${needed_lines})
+    string(REGEX REPLACE ".*\\[([^]]*)\\]" "\\1" lib "${line}")
+    list(APPEND needed ${lib})
+  endforeach()
+  set(${out} ${needed} PARENT_SCOPE)
+endfunction()
+
 run_step("installing the build" ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
 set(components contract host head perception navigation light)
-set(expected bin/projtour include/projtour/plugin_author.hpp include/projtour/plugin_abi.h
+set(expected bin/projtour ${LIBDIR}/projtour/libprojtour_cli.so
+             include/projtour/plugin_author.hpp include/projtour/plugin_abi.h
              include/projtour/contract_version.h
              ${LIBDIR}/libprojtour_contract.so.${CONTRACT_SOVERSION}
              ${LIBDIR}/cmake/projtour/projtourConfig.cmake
@@ -54,6 +67,14 @@ execute_process(COMMAND ${prefix}/bin/projtour RESULT_VARIABLE rc ERROR_VARIABLE
 if(err MATCHES "error while loading shared libraries" OR rc EQUAL 127)
   message(FATAL_ERROR "the installed projtour does not start:\n${err}")
 endif()
+# The launcher runs `projtour history` with none of the robot's libraries (cli_module.hpp): the
+# rest is in the module it loads.
+needed_libraries(${prefix}/bin/projtour launcher_needed)
+foreach(lib ${launcher_needed})
+  if(lib MATCHES "mrpt|pcl|opencv|yaml|vtk|boost|ddsc|projtour")
+    message(FATAL_ERROR "the projtour launcher links ${lib} (NEEDED: ${launcher_needed})")
+  endif()
+endforeach()
 
 run_step("configuring the template" ${CMAKE_COMMAND} -S ${TEMPLATE_DIR} -B ${template_build}
          -G ${GENERATOR} -DCMAKE_CXX_COMPILER=${CXX_COMPILER} -DCMAKE_BUILD_TYPE=Release
@@ -71,13 +92,7 @@ foreach(built ${plugin} ${prefix}/${LIBDIR}/projtour/plugins/libprojtour_hello_b
   if(NOT EXISTS ${built})
     message(FATAL_ERROR "the template did not install ${built}")
   endif()
-  run_step("reading the NEEDED list of ${built}" ${READELF} -d ${built})
-  string(REGEX MATCHALL "\\(NEEDED\\)[^\n]*\\[([^]]*)\\]" needed_lines "${step_output}")
-  set(needed "")
-  foreach(line ${needed_lines})
-    string(REGEX REPLACE ".*\\[([^]]*)\\]" "\\1" lib "${line}")
-    list(APPEND needed ${lib})
-  endforeach()
+  needed_libraries(${built} needed)
   if(NOT "libprojtour_contract.so.${CONTRACT_SOVERSION}" IN_LIST needed)
     message(FATAL_ERROR "${built} does not link libprojtour_contract.so.${CONTRACT_SOVERSION}: ${needed}")
   endif()

@@ -107,11 +107,6 @@ struct StoredProof {
 StoredProof store_proof(const std::filesystem::path& db, const std::vector<unsigned char>& jpeg);
 std::string sha256_hex(const std::vector<unsigned char>& bytes);
 
-// A small JPEG (`width_px` wide) of a picture file: the colour camera's view of the check with
-// the observed corners marked (verify's camera_view.png). Empty when the file cannot be read.
-std::vector<unsigned char> proof_jpeg_from(const std::filesystem::path& picture,
-                                           int width_px = 320);
-
 // `projtour history`'s query.
 struct HistoryQuery {
   std::optional<double> from_s;  // Unix time, inclusive
