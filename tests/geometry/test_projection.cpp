@@ -166,6 +166,62 @@ TEST(Projection, WarpedImageKeepsCornerOrderAndBlacksOutside) {
   }
 }
 
+// The maps cover only the pixels the content can light: nothing a map over every projector
+// pixel would light lies outside the reach, and inside it the frame is that map's (bit for bit
+// without distortion, where both take the same ideal pixels; with it, the warp's undistortion
+// is interpolated between exact nodes, so within a fraction of a grey level on average).
+void expect_reach_warp_is_whole_frame_warp(bool distorted) {
+  const PinholeModel projector = ud_projector(distorted);
+  Eigen::Isometry3d T = T_projector_model_oblique();
+  T.translation().z() = 3.0;  // farther: the content covers a small part of the frame
+  const ProjectedQuad quad = project_model_points(model_rectangle(), T, projector);
+  ASSERT_TRUE(quad.on_screen) << quad.problem;
+  cv::Mat content(500, 800, CV_8UC3);
+  cv::randu(content, cv::Scalar::all(0), cv::Scalar::all(256));
+  ContentWarper warper(projector);
+  warper.set_target(content.size(), quad);
+  const cv::Mat frame = warper.warp(content);
+  const cv::Rect reach = warper.reach();
+  EXPECT_LT(reach.area(), 1280 * 800 / 8) << reach;
+
+  cv::Mat map_x(800, 1280, CV_32F), map_y(800, 1280, CV_32F);
+  const cv::Matx33d H_content_ideal = warper.H_ideal_content().inv();
+  for (int v = 0; v < 800; ++v) {
+    for (int u = 0; u < 1280; ++u) {
+      Eigen::Vector2d ideal(u, v);
+      if (distorted) {
+        const Eigen::Vector3d ray = projector.unproject(ideal);
+        ideal = Eigen::Vector2d(projector.fx * ray.x() + projector.cx,
+                                projector.fy * ray.y() + projector.cy);
+      }
+      const cv::Vec3d c = H_content_ideal * cv::Vec3d(ideal.x(), ideal.y(), 1.0);
+      map_x.at<float>(v, u) = static_cast<float>(c[0] / c[2]);
+      map_y.at<float>(v, u) = static_cast<float>(c[1] / c[2]);
+    }
+  }
+  cv::Mat whole;
+  cv::remap(content, whole, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar());
+  cv::Mat lit_outside = whole.clone();
+  lit_outside(reach).setTo(cv::Scalar::all(0));
+  EXPECT_EQ(cv::countNonZero(lit_outside.reshape(1)), 0)
+      << "the reach " << reach << " misses lit pixels";
+  cv::Mat diff;
+  cv::absdiff(frame, whole, diff);
+  if (distorted) {
+    EXPECT_LT(cv::mean(diff(reach))[0], 0.5);
+  } else {
+    EXPECT_EQ(cv::countNonZero(diff.reshape(1)), 0);
+  }
+}
+
+TEST(Projection, WarpOverTheContentsReachIsTheWholeFramesWarp) {
+  expect_reach_warp_is_whole_frame_warp(false);
+}
+
+TEST(Projection, WarpOverTheContentsReachIsTheWholeFramesWarpThroughTheLens) {
+  expect_reach_warp_is_whole_frame_warp(true);
+}
+
 TEST(Projection, OffScreenAndBehindAreReported) {
   const PinholeModel projector = ud_projector(false);
   Eigen::Isometry3d T = T_projector_model_oblique();

@@ -3,6 +3,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <stdexcept>
@@ -183,29 +184,71 @@ ContentWarper::ContentWarper(const PinholeModel& projector)
   });
 }
 
+// The projector pixels the content can reach: the content rectangle grown by the pixel that
+// INTER_LINEAR blends with the black border, carried onto the ideal image and through the lens,
+// sampled along its edges (the distortion bends them), with two pixels to spare for the
+// undistortion map's interpolation. Every pixel outside samples only the border: black. The
+// whole frame when part of the rectangle lies beyond the plane's horizon.
+cv::Rect ContentWarper::content_reach() const {
+  const cv::Rect frame(cv::Point(0, 0), projector_size_);
+  const double w = content_size_.width, h = content_size_.height;
+  const std::array<Eigen::Vector2d, 4> grown = {Eigen::Vector2d(-1, -1), Eigen::Vector2d(w, -1),
+                                                Eigen::Vector2d(w, h), Eigen::Vector2d(-1, h)};
+  constexpr int kSamplesPerEdge = 32;
+  double u_min = std::numeric_limits<double>::infinity(), v_min = u_min;
+  double u_max = -u_min, v_max = -u_min;
+  for (int e = 0; e < 4; ++e) {
+    for (int k = 0; k < kSamplesPerEdge; ++k) {
+      const Eigen::Vector2d c =
+          grown[e] + (grown[(e + 1) % 4] - grown[e]) * (k / double(kSamplesPerEdge));
+      const cv::Vec3d x = H_ideal_content_ * cv::Vec3d(c.x(), c.y(), 1.0);
+      if (x[2] <= 0.0) return frame;
+      const Eigen::Vector3d ray((x[0] / x[2] - projector_.cx) / projector_.fx,
+                                (x[1] / x[2] - projector_.cy) / projector_.fy, 1.0);
+      const std::optional<Eigen::Vector2d> px = projector_.project(ray);
+      if (!px || !px->allFinite()) return frame;
+      u_min = std::min(u_min, px->x());
+      u_max = std::max(u_max, px->x());
+      v_min = std::min(v_min, px->y());
+      v_max = std::max(v_max, px->y());
+    }
+  }
+  constexpr double kSparePx = 2.0;
+  const auto clamp_to = [](double v, int hi) {
+    return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(hi)));
+  };
+  const int u0 = clamp_to(std::floor(u_min - kSparePx), projector_size_.width);
+  const int v0 = clamp_to(std::floor(v_min - kSparePx), projector_size_.height);
+  const int u1 = clamp_to(std::ceil(u_max + kSparePx) + 1, projector_size_.width);
+  const int v1 = clamp_to(std::ceil(v_max + kSparePx) + 1, projector_size_.height);
+  return cv::Rect(u0, v0, std::max(0, u1 - u0), std::max(0, v1 - v0));
+}
+
 void ContentWarper::set_target(const cv::Size& content_size, const ProjectedQuad& quad) {
   if (content_size.width < 2 || content_size.height < 2) {
     throw std::invalid_argument("content image smaller than 2x2");
   }
   content_size_ = content_size;
   H_ideal_content_ = homography(content_corners(content_size), quad.ideal_pixels);
-  const cv::Matx33d H_content_ideal = H_ideal_content_.inv();
-  map_x_.create(projector_size_, CV_32F);
-  map_y_.create(projector_size_, CV_32F);
-  cv::parallel_for_(cv::Range(0, projector_size_.height), [&](const cv::Range& rows) {
-    for (int v = rows.start; v < rows.end; ++v) {
-      const double* ix = ideal_x_.ptr<double>(v);
-      const double* iy = ideal_y_.ptr<double>(v);
-      float* mx = map_x_.ptr<float>(v);
-      float* my = map_y_.ptr<float>(v);
-      for (int u = 0; u < projector_size_.width; ++u) {
-        const cv::Vec3d c = H_content_ideal * cv::Vec3d(ix[u], iy[u], 1.0);
-        if (c[2] <= 0.0) {  // the far side of the plane's horizon: never content
-          mx[u] = my[u] = -1e6f;
+  H_content_ideal_ = H_ideal_content_.inv();
+  reach_ = content_reach();
+  // The maps cover the reach only: a small target's are a fraction of the frame's 1M pixels.
+  map_x_.create(std::max(1, reach_.height), std::max(1, reach_.width), CV_32F);
+  map_y_.create(map_x_.size(), CV_32F);
+  cv::parallel_for_(cv::Range(0, reach_.height), [&](const cv::Range& rows) {
+    for (int r = rows.start; r < rows.end; ++r) {
+      const double* ix = ideal_x_.ptr<double>(reach_.y + r) + reach_.x;
+      const double* iy = ideal_y_.ptr<double>(reach_.y + r) + reach_.x;
+      float* mx = map_x_.ptr<float>(r);
+      float* my = map_y_.ptr<float>(r);
+      for (int c = 0; c < reach_.width; ++c) {
+        const cv::Vec3d x = H_content_ideal_ * cv::Vec3d(ix[c], iy[c], 1.0);
+        if (x[2] <= 0.0) {  // the far side of the plane's horizon: never content
+          mx[c] = my[c] = -1e6f;
           continue;
         }
-        mx[u] = static_cast<float>(c[0] / c[2]);
-        my[u] = static_cast<float>(c[1] / c[2]);
+        mx[c] = static_cast<float>(x[0] / x[2]);
+        my[c] = static_cast<float>(x[1] / x[2]);
       }
     }
   });
@@ -216,8 +259,11 @@ cv::Mat ContentWarper::warp(const cv::Mat& content) const {
   if (content.size() != content_size_) {
     throw std::invalid_argument("content frame size differs from the size the warp was set for");
   }
-  cv::Mat out;
-  cv::remap(content, out, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar());
+  cv::Mat out(projector_size_, content.type(), cv::Scalar::all(0));
+  if (reach_.area() == 0) return out;
+  // Into the reach's view of the frame: remap writes in place when the size and type match.
+  cv::Mat reach = out(reach_);
+  cv::remap(content, reach, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar());
   return out;
 }
 
@@ -226,12 +272,14 @@ Eigen::Vector2d ContentWarper::content_at(const Eigen::Vector2d& pixel) const {
   const int u0 = std::clamp(static_cast<int>(std::floor(pixel.x())), 0, projector_size_.width - 2);
   const int v0 = std::clamp(static_cast<int>(std::floor(pixel.y())), 0, projector_size_.height - 2);
   const double fu = pixel.x() - u0, fv = pixel.y() - v0;
-  auto lerp = [&](const cv::Mat& m) {
-    const double a = m.at<float>(v0, u0), b = m.at<float>(v0, u0 + 1);
-    const double c = m.at<float>(v0 + 1, u0), d = m.at<float>(v0 + 1, u0 + 1);
-    return (1 - fv) * ((1 - fu) * a + fu * b) + fv * ((1 - fu) * c + fu * d);
+  // Bilinear over the content map at the four pixels, each as the warp computes it.
+  const auto content = [&](int u, int v) {
+    const cv::Vec3d x =
+        H_content_ideal_ * cv::Vec3d(ideal_x_.at<double>(v, u), ideal_y_.at<double>(v, u), 1.0);
+    return Eigen::Vector2d(static_cast<float>(x[0] / x[2]), static_cast<float>(x[1] / x[2]));
   };
-  return {lerp(map_x_), lerp(map_y_)};
+  return (1 - fv) * ((1 - fu) * content(u0, v0) + fu * content(u0 + 1, v0)) +
+         fv * ((1 - fu) * content(u0, v0 + 1) + fu * content(u0 + 1, v0 + 1));
 }
 
 }  // namespace projtour

@@ -68,14 +68,20 @@ class ContentWarper {
 
   const cv::Matx33d& H_ideal_content() const { return H_ideal_content_; }
   const cv::Size& projector_size() const { return projector_size_; }
+  // The projector pixels the content can light (its maps' extent); black everywhere else.
+  const cv::Rect& reach() const { return reach_; }
 
  private:
   PinholeModel projector_;
   cv::Size projector_size_;
   cv::Size content_size_;
   cv::Mat ideal_x_, ideal_y_;  // CV_64F ideal pinhole coordinates of each projector pixel
-  cv::Mat map_x_, map_y_;      // CV_32F content coordinates of each projector pixel
+  cv::Rect reach_;             // the projector pixels the maps cover
+  cv::Mat map_x_, map_y_;      // CV_32F content coordinates of each projector pixel of reach_
   cv::Matx33d H_ideal_content_ = cv::Matx33d::eye();
+  cv::Matx33d H_content_ideal_ = cv::Matx33d::eye();
+
+  cv::Rect content_reach() const;
 };
 
 }  // namespace projtour
