@@ -9,12 +9,14 @@
 // The lit area shows whether the light lands on the target or on something in front of it.
 #include "verify.hpp"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "projtour/geometry.hpp"
 #include "projtour/light_check.hpp"
 #include "projtour/outline_match.hpp"
 #include "projtour/registered_depth.hpp"
@@ -216,6 +218,9 @@ Outcome Verify::measure(Context& ctx) {
   outline_settings.search_px = settings_->outline_search_px;
   const auto outline = light::match_outline(dark, model_z, outline_settings);
   Eigen::Vector3d slide = Eigen::Vector3d::Zero();
+  // Each Model Point's own slide: the outline's shift and its turn about the face's normal.
+  std::array<Eigen::Vector3d, 4> slide_at{};
+  slide_at.fill(Eigen::Vector3d::Zero());
   bool clear = false, gross = false;
   std::string outline_text;
   // An outline that fixes no image direction checks nothing.
@@ -233,9 +238,18 @@ Outcome Verify::measure(Context& ctx) {
             outline->shift_px.norm() > kGrossShiftPx &&
             (clear || outline->cost_px < kGrossCostShare * outline->cost_at_zero_px);
     if (clear || gross) slide = seen;
+    // A clear outline's turn is measured too (a gross slide is corrected, then looked at again).
+    for (int i = 0; i < 4; ++i) {
+      slide_at[i] = slide;
+      if (!clear || gross || result_.expected_colour_px[i].x() < 0) continue;
+      slide_at[i] =
+          light::slide_for_shift(colour, M[i], plane_normal,
+                                 light::outline_moves(*outline, result_.expected_colour_px[i]));
+    }
     outline_text = "the outline seen " + fixed(1e3 * seen.norm(), 1) +
                    " mm from the aligned pose (" + fixed(outline->shift_px.x(), 1) + ", " +
-                   fixed(outline->shift_px.y(), 1) + " px, " +
+                   fixed(outline->shift_px.y(), 1) + " px, turned " +
+                   fixed(rad_to_deg(outline->rotation_rad), 2) + " deg, " +
                    std::to_string(outline->fixed_directions) + " directions fixed, " +
                    fixed(100.0 * outline->matched_fraction, 0) + " % matched)";
   } else {
@@ -276,7 +290,7 @@ Outcome Verify::measure(Context& ctx) {
       const auto px = colour.project(point);
       return (px ? lift_on_target(depth, colour, *px, point, n) : std::nullopt).value_or(point);
     };
-    const Eigen::Vector3d M_seen = M[i] + slide;
+    const Eigen::Vector3d M_seen = M[i] + slide_at[i];
     const auto p = lift_on_target(depth, colour, *found[i], M_seen, n);
     if (!p) {
       unseen += (unseen.empty() ? "" : ", ") + std::to_string(i + 1) + " (no surface)";
@@ -298,7 +312,15 @@ Outcome Verify::measure(Context& ctx) {
   // the light's landing was judged against the model where it is not.
   const auto correct_pose = [&](const std::string& why) {
     AlignResult corrected = *ctx.blackboard().find(keys::kAlign);
-    corrected.T_camera_model = Eigen::Translation3d(slide) * view_->T_camera_model;
+    // The rigid move that carries the Model Points onto where the outline sees them: its shift
+    // and its turn (a gross slide's is the shift alone).
+    Eigen::Matrix<double, 3, 4> from, to;
+    for (int i = 0; i < 4; ++i) {
+      from.col(i) = M[i];
+      to.col(i) = M[i] + slide_at[i];
+    }
+    const Eigen::Isometry3d T_seen_aligned(Eigen::umeyama(from, to, false));
+    corrected.T_camera_model = T_seen_aligned * view_->T_camera_model;
     ctx.blackboard().set(keys::kAlign, std::move(corrected));
     return Outcome{"misaligned", who + why + "; the pose slides with the outline; " + light_text};
   };

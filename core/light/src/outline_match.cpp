@@ -1,6 +1,7 @@
 // The outline check: the model's rendered outline against the colour image's edges.
 #include "projtour/outline_match.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
@@ -221,6 +222,49 @@ std::optional<OutlineMatch> match_outline(const ColourFrame& frame,
     if (step.norm() < 0.05) break;
   }
   OutlineMatch out;
+  // The turn: each outline pixel's distance to its edge at the shift, against a rotation about
+  // the outline's centroid together with a residual shift (so an outline matched unevenly
+  // around the centroid does not pass its shift off as a turn).
+  if (std::lround(projector_onto_fixed.trace()) == 2) {
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    for (const OutlinePixel& p : outline) centre += Eigen::Vector2d(p.u, p.v);
+    centre /= static_cast<double>(outline.size());
+    // One step, first order in the turn: looked at again from its answer, the turn wanders by
+    // a tenth of a degree with the edges' pixel steps and is no nearer the truth.
+    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    double extent = 0.0;
+    int used = 0;
+    for (const OutlinePixel& p : outline) {
+      const Eigen::Vector2d at = Eigen::Vector2d(p.u - roi.x, p.v - roi.y) + shift;
+      std::optional<double> along;
+      for (int k = 0; k <= 2 * kNormalReachHalfPx && !along; ++k) {
+        const double t = (k % 2 == 1 ? 1.0 : -1.0) * 0.5 * ((k + 1) / 2);
+        const Eigen::Vector2d q = at + t * p.normal;
+        const int u = static_cast<int>(std::lround(q.x())),
+                  v = static_cast<int>(std::lround(q.y()));
+        if (u < 0 || v < 0 || u >= roi.width || v >= roi.height) continue;
+        if (not_edge[p.bin].at<std::uint8_t>(v, u) == 0) along = t;
+      }
+      if (!along) continue;
+      const Eigen::Vector2d r = Eigen::Vector2d(p.u, p.v) - centre;
+      const Eigen::Vector3d j(p.normal.x(), p.normal.y(),
+                              p.normal.dot(Eigen::Vector2d(-r.y(), r.x())));
+      A += j * j.transpose();
+      b += *along * j;
+      extent += r.squaredNorm();
+      ++used;
+    }
+    // The turn's information against what the outline's size would give if every normal were
+    // tangent to the circle about the centre: a thin or ragged outline says little of it.
+    if (used >= s.min_outline_pixels && A(2, 2) >= kMinFixedShare * extent) {
+      const Eigen::Vector3d x = A.ldlt().solve(b);
+      if (x.allFinite()) {
+        out.rotation_rad = x.z();
+        out.centre_px = centre;
+      }
+    }
+  }
   out.shift_px = projector_onto_fixed * shift;
   out.fixed_directions = static_cast<int>(std::lround(projector_onto_fixed.trace()));
   out.cost_px = best;
@@ -234,6 +278,11 @@ std::optional<OutlineMatch> match_outline(const ColourFrame& frame,
   }
   out.matched_fraction = static_cast<double>(matched) / outline.size();
   return out;
+}
+
+Eigen::Vector2d outline_moves(const OutlineMatch& match, const Eigen::Vector2d& px) {
+  const Eigen::Vector2d r = px - match.centre_px;
+  return match.shift_px + match.rotation_rad * Eigen::Vector2d(-r.y(), r.x());
 }
 
 Eigen::Vector3d slide_for_shift(const PinholeModel& colour, const Eigen::Vector3d& point,

@@ -30,7 +30,17 @@ struct OutlineMatch {
   double cost_px = 0.0;           // mean truncated distance to an edge, at the shift
   double cost_at_zero_px = 0.0;   // ... and where the model has it
   int outline_pixels = 0;
+  // The outline turned in the image about `centre_px` (radians, image x towards image y), after
+  // the shift: what a rough model's fit leaves about the face's normal, which the depth cannot
+  // see on a flat face and the shift does not hold. Zero unless both directions are fixed and
+  // the outline's extent around the centre fixes the turn too.
+  double rotation_rad = 0.0;
+  Eigen::Vector2d centre_px = Eigen::Vector2d::Zero();
 };
+
+// Where the outline match moves an image point `px` of the model: the shift, and the turn about
+// the centre.
+Eigen::Vector2d outline_moves(const OutlineMatch& match, const Eigen::Vector2d& px);
 
 // `frame`: the colour camera with the projector dark (room light only: the content's own edges
 // would be matched otherwise). `model_depth`: light::model_depth's image of the model at the
