@@ -185,6 +185,20 @@ std::optional<OutlineMatch> match_outline(const ColourFrame& frame,
   // along its own normal (the nearest edge of its orientation on that line); the normal equations
   // show which image directions the outline fixes. A pillar's two upright sides say nothing of
   // up and down, and the answer keeps nothing there.
+  // How far along its normal from `p` moved by `shift` the nearest edge of its orientation lies.
+  const auto edge_along = [&](const OutlinePixel& p,
+                              const Eigen::Vector2d& shift) -> std::optional<double> {
+    const Eigen::Vector2d at = Eigen::Vector2d(p.u - roi.x, p.v - roi.y) + shift;
+    for (int k = 0; k <= 2 * kNormalReachHalfPx; ++k) {
+      // 0, +0.5, -0.5, +1, -1, ...: the nearest edge wins.
+      const double t = (k % 2 == 1 ? 1.0 : -1.0) * 0.5 * ((k + 1) / 2);
+      const Eigen::Vector2d q = at + t * p.normal;
+      const int u = static_cast<int>(std::lround(q.x())), v = static_cast<int>(std::lround(q.y()));
+      if (u < 0 || v < 0 || u >= roi.width || v >= roi.height) continue;
+      if (not_edge[p.bin].at<std::uint8_t>(v, u) == 0) return t;
+    }
+    return std::nullopt;
+  };
   Eigen::Vector2d shift(best_u, best_v);
   Eigen::Matrix2d projector_onto_fixed = Eigen::Matrix2d::Zero();
   for (int iteration = 0; iteration < 3; ++iteration) {
@@ -192,17 +206,7 @@ std::optional<OutlineMatch> match_outline(const ColourFrame& frame,
     Eigen::Vector2d b = Eigen::Vector2d::Zero();
     int used = 0;
     for (const OutlinePixel& p : outline) {
-      const Eigen::Vector2d at = Eigen::Vector2d(p.u - roi.x, p.v - roi.y) + shift;
-      std::optional<double> along;
-      for (int k = 0; k <= 2 * kNormalReachHalfPx && !along; ++k) {
-        // 0, +0.5, -0.5, +1, -1, ...: the nearest edge wins.
-        const double t = (k % 2 == 1 ? 1.0 : -1.0) * 0.5 * ((k + 1) / 2);
-        const Eigen::Vector2d q = at + t * p.normal;
-        const int u = static_cast<int>(std::lround(q.x())),
-                  v = static_cast<int>(std::lround(q.y()));
-        if (u < 0 || v < 0 || u >= roi.width || v >= roi.height) continue;
-        if (not_edge[p.bin].at<std::uint8_t>(v, u) == 0) along = t;
-      }
+      const std::optional<double> along = edge_along(p, shift);
       if (!along) continue;
       A += p.normal * p.normal.transpose();
       b += *along * p.normal;
@@ -236,16 +240,7 @@ std::optional<OutlineMatch> match_outline(const ColourFrame& frame,
     double extent = 0.0;
     int used = 0;
     for (const OutlinePixel& p : outline) {
-      const Eigen::Vector2d at = Eigen::Vector2d(p.u - roi.x, p.v - roi.y) + shift;
-      std::optional<double> along;
-      for (int k = 0; k <= 2 * kNormalReachHalfPx && !along; ++k) {
-        const double t = (k % 2 == 1 ? 1.0 : -1.0) * 0.5 * ((k + 1) / 2);
-        const Eigen::Vector2d q = at + t * p.normal;
-        const int u = static_cast<int>(std::lround(q.x())),
-                  v = static_cast<int>(std::lround(q.y()));
-        if (u < 0 || v < 0 || u >= roi.width || v >= roi.height) continue;
-        if (not_edge[p.bin].at<std::uint8_t>(v, u) == 0) along = t;
-      }
+      const std::optional<double> along = edge_along(p, shift);
       if (!along) continue;
       const Eigen::Vector2d r = Eigen::Vector2d(p.u, p.v) - centre;
       const Eigen::Vector3d j(p.normal.x(), p.normal.y(),
