@@ -23,7 +23,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The module beside this executable, installed or in the build tree; empty when neither is.
+// The module beside this executable, in the build tree or installed; empty when neither is. The
+// build tree's comes first: a build-tree launcher's installed-layout path (the build directory's
+// parent's lib/) may hold another, older installation's module, an installed launcher's
+// build-tree path (bin/lib/) never does.
 fs::path cli_module_path(std::string& why) {
   std::error_code ec;
   const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
@@ -31,7 +34,7 @@ fs::path cli_module_path(std::string& why) {
     why = "cannot find this executable (/proc/self/exe: " + ec.message() + ")";
     return {};
   }
-  for (const char* relative : {PROJTOUR_CLI_FROM_INSTALLED_EXE, PROJTOUR_CLI_FROM_BUILD_EXE}) {
+  for (const char* relative : {PROJTOUR_CLI_FROM_BUILD_EXE, PROJTOUR_CLI_FROM_INSTALLED_EXE}) {
     const fs::path candidate = (exe.parent_path() / relative).lexically_normal();
     if (fs::is_regular_file(candidate, ec)) return candidate;
     why += (why.empty() ? "" : ", ") + candidate.string();

@@ -166,9 +166,40 @@ TEST_F(HistoryCommand, TheLauncherAloneRunsHistoryAndNamesTheModuleItLacks) {
                        dir_.string()),
             std::string::npos)
       << p.err;
-  // Both places it looks, the installed layout's and the build tree's.
+  // Both places it looks, the build tree's and the installed layout's.
   EXPECT_NE(p.err.find("/projtour/libprojtour_cli.so, " + dir_.string()), std::string::npos)
       << p.err;
+}
+
+// Regression: a build-tree launcher looked for the installed layout's module first (by default
+// the build directory's parent's lib/projtour/), so another installation's module there, older or
+// broken, was loaded instead of the build's own.
+TEST_F(HistoryCommand, Regression_ABuildTreeLauncherLoadsItsOwnModuleBeforeAnInstalledOne) {
+  const fs::path build = dir_ / "build";
+  const fs::path launcher = build / "projtour";
+  const fs::path own = build / "lib" / "projtour" / "libprojtour_cli.so";
+  const fs::path installed = (build / PROJTOUR_CLI_FROM_INSTALLED_EXE).lexically_normal();
+  fs::create_directories(own.parent_path());
+  fs::create_directories(installed.parent_path());
+  fs::copy_file(test::projtour_binary(), launcher);
+  fs::copy_file(test::projtour_binary().parent_path() / "lib" / "projtour" / "libprojtour_cli.so",
+                own);
+  std::ofstream(installed) << "not a module\n";
+
+  test::ChildOptions help = command({"--help"}, "own_module");
+  help.argv[0] = launcher.string();
+  const test::RunResult r = test::run(help, std::chrono::seconds(60));
+  EXPECT_EQ(r.status, 0) << r.err;
+  // The usage, which only the module prints.
+  EXPECT_NE(r.err.find("usage:\n  projtour run MISSION.yaml"), std::string::npos) << r.err;
+
+  // With the build's own gone, the one at the installed layout's place is the one tried, and
+  // refused by name.
+  fs::remove(own);
+  const test::RunResult other = test::run(help, std::chrono::seconds(60));
+  EXPECT_EQ(other.status, 1);
+  EXPECT_NE(other.err.find("projtour: cannot load " + installed.string()), std::string::npos)
+      << other.err;
 }
 
 TEST_F(HistoryCommand, AMalformedTimeRangeIsExit2NamingTheOption) {
