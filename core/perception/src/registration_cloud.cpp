@@ -9,6 +9,7 @@
 #include "crop_internal.hpp"
 #include "projtour/geometry.hpp"
 #include "projtour/registration.hpp"
+#include "vector_clones.hpp"
 
 namespace projtour {
 
@@ -146,9 +147,11 @@ namespace {
 
 // crop_point without distortion, on its own so that the planes are known not to overlap and the
 // compiler turns it into vector instructions.
-std::size_t crop_row_pinhole(std::size_t n, const std::uint16_t* __restrict__ depth,
-                             const float* __restrict__ ray_x, float ray_y, const SphereCrop& crop,
-                             float* __restrict__ x, float* __restrict__ y, float* __restrict__ z) {
+PROJTOUR_VECTOR_CLONES std::size_t crop_row_pinhole(std::size_t n,
+                                                    const std::uint16_t* __restrict__ depth,
+                                                    const float* __restrict__ ray_x, float ray_y,
+                                                    const SphereCrop& crop, float* __restrict__ x,
+                                                    float* __restrict__ y, float* __restrict__ z) {
   const float c0 = crop.centre_depth.x(), c1 = crop.centre_depth.y(), c2 = crop.centre_depth.z();
   const float o0 = crop.depth_to_color_m.x(), o1 = crop.depth_to_color_m.y(),
               o2 = crop.depth_to_color_m.z();

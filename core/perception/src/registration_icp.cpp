@@ -21,6 +21,7 @@
 #include "crop_internal.hpp"
 #include "projtour/geometry.hpp"
 #include "projtour/registration.hpp"
+#include "vector_clones.hpp"
 
 namespace projtour {
 
@@ -470,13 +471,12 @@ struct MovedModel {
 constexpr float kFarPixel = 1e7f;
 
 // Projector::move's loop, on its own so that the arrays are known not to overlap.
-void move_points(std::size_t n, const float* pose, const float* camera,
-                 const float* __restrict__ mx, const float* __restrict__ my,
-                 const float* __restrict__ mz, const float* __restrict__ mnx,
-                 const float* __restrict__ mny, const float* __restrict__ mnz,
-                 float* __restrict__ px, float* __restrict__ py, float* __restrict__ pz,
-                 float* __restrict__ nx, float* __restrict__ ny, float* __restrict__ nz,
-                 float* __restrict__ u, float* __restrict__ v, int* __restrict__ seen) {
+PROJTOUR_VECTOR_CLONES void move_points(
+    std::size_t n, const float* pose, const float* camera, const float* __restrict__ mx,
+    const float* __restrict__ my, const float* __restrict__ mz, const float* __restrict__ mnx,
+    const float* __restrict__ mny, const float* __restrict__ mnz, float* __restrict__ px,
+    float* __restrict__ py, float* __restrict__ pz, float* __restrict__ nx, float* __restrict__ ny,
+    float* __restrict__ nz, float* __restrict__ u, float* __restrict__ v, int* __restrict__ seen) {
   const float r00 = pose[0], r01 = pose[1], r02 = pose[2], r10 = pose[3], r11 = pose[4],
               r12 = pose[5], r20 = pose[6], r21 = pose[7], r22 = pose[8];
   const float t0 = pose[9], t1 = pose[10], t2 = pose[11];
@@ -688,22 +688,14 @@ class NormalEquations {
     for (std::size_t k = m_; k < blocks * kLanes; ++k) {
       for (float* plane : planes_) plane[k] = 0.0f;
     }
-    alignas(32) float sums[kSums][kLanes] = {};
-    for (std::size_t block = 0; block < blocks; ++block) {
-      const std::size_t k0 = block * kLanes;
-      int s = 0;
-      for (int a = 0; a < 6; ++a) {
-        for (int b = 0; b <= a; ++b, ++s)
-          add_products(sums[s], planes_[6 + a] + k0, planes_[b] + k0);
-      }
-      for (int a = 0; a < 6; ++a, ++s) add_products(sums[s], planes_[6 + a] + k0, planes_[12] + k0);
-    }
+    // Sum by sum over all blocks, so a sum's lanes stay in registers.
     double total[kSums];
-    for (int s = 0; s < kSums; ++s) {
-      total[s] = 0.0;
-      for (int lane = 0; lane < kLanes; ++lane) total[s] += sums[s][lane];
-    }
     int s = 0;
+    for (int a = 0; a < 6; ++a) {
+      for (int b = 0; b <= a; ++b, ++s) total[s] = sum_products(blocks, planes_[6 + a], planes_[b]);
+    }
+    for (int a = 0; a < 6; ++a, ++s) total[s] = sum_products(blocks, planes_[6 + a], planes_[12]);
+    s = 0;
     for (int a = 0; a < 6; ++a) {
       for (int b = 0; b <= a; ++b) H(a, b) = H(b, a) = total[s++];
     }
@@ -712,9 +704,17 @@ class NormalEquations {
 
  private:
   static constexpr int kLanes = 8;
-  static void add_products(float* __restrict__ sum, const float* __restrict__ a,
-                           const float* __restrict__ b) {
-    for (int lane = 0; lane < kLanes; ++lane) sum[lane] += a[lane] * b[lane];
+  // Sum of a[k] b[k] over whole blocks: lane by lane in block order, then the lanes in order.
+  PROJTOUR_VECTOR_CLONES static double sum_products(std::size_t blocks, const float* __restrict__ a,
+                                                    const float* __restrict__ b) {
+    float lanes[kLanes] = {};
+    for (std::size_t block = 0; block < blocks; ++block) {
+      const std::size_t k0 = block * kLanes;
+      for (int lane = 0; lane < kLanes; ++lane) lanes[lane] += a[k0 + lane] * b[k0 + lane];
+    }
+    double total = 0.0;
+    for (int lane = 0; lane < kLanes; ++lane) total += lanes[lane];
+    return total;
   }
   float* planes_[13];
   std::size_t m_ = 0;
