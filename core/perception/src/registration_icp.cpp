@@ -682,24 +682,17 @@ class NormalEquations {
     ++m_;
   }
   void solve_inputs(Eigen::Matrix<double, 6, 6>& H, Eigen::Matrix<double, 6, 1>& g) {
-    constexpr int kSums = 27;  // 21 of H's lower triangle, 6 of g
     // The last block padded with zero weights, so every block is whole.
     const std::size_t blocks = (m_ + kLanes - 1) / kLanes;
     for (std::size_t k = m_; k < blocks * kLanes; ++k) {
       for (float* plane : planes_) plane[k] = 0.0f;
     }
     // Sum by sum over all blocks, so a sum's lanes stay in registers.
-    double total[kSums];
-    int s = 0;
     for (int a = 0; a < 6; ++a) {
-      for (int b = 0; b <= a; ++b, ++s) total[s] = sum_products(blocks, planes_[6 + a], planes_[b]);
+      for (int b = 0; b <= a; ++b)
+        H(a, b) = H(b, a) = sum_products(blocks, planes_[6 + a], planes_[b]);
+      g[a] = sum_products(blocks, planes_[6 + a], planes_[12]);
     }
-    for (int a = 0; a < 6; ++a, ++s) total[s] = sum_products(blocks, planes_[6 + a], planes_[12]);
-    s = 0;
-    for (int a = 0; a < 6; ++a) {
-      for (int b = 0; b <= a; ++b) H(a, b) = H(b, a) = total[s++];
-    }
-    for (int a = 0; a < 6; ++a) g[a] = total[21 + a];
   }
 
  private:
