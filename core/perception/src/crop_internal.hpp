@@ -39,7 +39,7 @@ class WindowRays {
   // Without distortion, the rays' x per column of the window (from its first) and y of row v;
   // nullptr with distortion.
   const float* column_x() const { return table_ != nullptr ? nullptr : column_x_.data(); }
-  float row_y(int v) const { return row_y_[v - v0_]; }
+  const float& row_y(int v) const { return row_y_[v - v0_]; }
   // (u, v) in full-resolution pixels inside the window.
   Eigen::Vector2f at(int u, int v) const {
     if (table_ != nullptr) return table_[static_cast<std::size_t>(v) * table_width_ + u];
@@ -69,9 +69,10 @@ inline Eigen::Vector3f crop_point(std::uint16_t depth_mm, const Eigen::Vector2f&
   return p + crop.depth_to_color_m;
 }
 
-// crop_point over pixels [u_lo, u_hi) of row v of the window, into planes x, y, z (from their
-// first element); returns how many points are valid.
-std::size_t crop_row(const DepthFrame& frame, const SphereCrop& crop, const WindowRays& rays, int v,
-                     int u_lo, int u_hi, float* x, float* y, float* z);
+// crop_point over pixels [u_lo, u_hi) x [v_lo, v_hi) of the window, into planes x, y, z (row r
+// of the block from element r * out_stride); returns how many points are valid.
+std::size_t crop_rows(const DepthFrame& frame, const SphereCrop& crop, const WindowRays& rays,
+                      int v_lo, int v_hi, int u_lo, int u_hi, float* x, float* y, float* z,
+                      std::size_t out_stride);
 
 }  // namespace projtour::detail

@@ -147,11 +147,13 @@ namespace {
 
 // crop_point without distortion, on its own so that the planes are known not to overlap and the
 // compiler turns it into vector instructions.
-PROJTOUR_VECTOR_CLONES std::size_t crop_row_pinhole(std::size_t n,
-                                                    const std::uint16_t* __restrict__ depth,
-                                                    const float* __restrict__ ray_x, float ray_y,
-                                                    const SphereCrop& crop, float* __restrict__ x,
-                                                    float* __restrict__ y, float* __restrict__ z) {
+// One row of crop_point for a pinhole camera; kWidth > 0 fixes the row's length at compile
+// time (a whole tile), so the vector loop has no remainder to peel.
+template <int kWidth>
+inline int crop_row_pinhole(std::size_t n, const std::uint16_t* __restrict__ depth,
+                            const float* __restrict__ ray_x, float ray_y, const SphereCrop& crop,
+                            float* __restrict__ x, float* __restrict__ y, float* __restrict__ z) {
+  if constexpr (kWidth > 0) n = kWidth;
   const float c0 = crop.centre_depth.x(), c1 = crop.centre_depth.y(), c2 = crop.centre_depth.z();
   const float o0 = crop.depth_to_color_m.x(), o1 = crop.depth_to_color_m.y(),
               o2 = crop.depth_to_color_m.z();
@@ -171,24 +173,52 @@ PROJTOUR_VECTOR_CLONES std::size_t crop_row_pinhole(std::size_t n,
     z[k] = in ? qz : nan;
     valid += in;
   }
-  return static_cast<std::size_t>(valid);
+  return valid;
+}
+
+// crop_rows for a pinhole camera: the rows in one call, so a tile's sixteen short rows pay for
+// the call and the setup once.
+PROJTOUR_VECTOR_CLONES std::size_t crop_rows_pinhole(int rows, std::size_t n,
+                                                     const std::uint16_t* depth,
+                                                     std::size_t depth_stride, const float* ray_x,
+                                                     const float* ray_y, const SphereCrop& crop,
+                                                     float* x, float* y, float* z,
+                                                     std::size_t out_stride) {
+  std::size_t valid = 0;
+  for (int r = 0; r < rows; ++r) {
+    const std::size_t in = static_cast<std::size_t>(r) * depth_stride;
+    const std::size_t out = static_cast<std::size_t>(r) * out_stride;
+    valid += static_cast<std::size_t>(
+        n == 16
+            ? crop_row_pinhole<16>(n, depth + in, ray_x, ray_y[r], crop, x + out, y + out, z + out)
+            : crop_row_pinhole<0>(n, depth + in, ray_x, ray_y[r], crop, x + out, y + out, z + out));
+  }
+  return valid;
 }
 
 }  // namespace
 
-std::size_t crop_row(const DepthFrame& frame, const SphereCrop& crop, const WindowRays& rays, int v,
-                     int u_lo, int u_hi, float* x, float* y, float* z) {
-  const std::uint16_t* depth = &frame.depth_mm[static_cast<std::size_t>(v) * frame.width];
+std::size_t crop_rows(const DepthFrame& frame, const SphereCrop& crop, const WindowRays& rays,
+                      int v_lo, int v_hi, int u_lo, int u_hi, float* x, float* y, float* z,
+                      std::size_t out_stride) {
+  if (v_lo >= v_hi || u_lo >= u_hi) return 0;
+  const std::uint16_t* depth = &frame.depth_mm[static_cast<std::size_t>(v_lo) * frame.width];
   if (rays.column_x() != nullptr) {
-    return crop_row_pinhole(static_cast<std::size_t>(u_hi - u_lo), depth + u_lo,
-                            rays.column_x() + (u_lo - crop.u_lo), rays.row_y(v), crop, x, y, z);
+    return crop_rows_pinhole(v_hi - v_lo, static_cast<std::size_t>(u_hi - u_lo), depth + u_lo,
+                             static_cast<std::size_t>(frame.width),
+                             rays.column_x() + (u_lo - crop.u_lo), &rays.row_y(v_lo), crop, x, y, z,
+                             out_stride);
   }
   std::size_t valid = 0;
-  for (int u = u_lo; u < u_hi; ++u) {
-    const Eigen::Vector3f p = crop_point(depth[u], rays.at(u, v), crop);
-    const int k = u - u_lo;
-    x[k] = p.x(), y[k] = p.y(), z[k] = p.z();
-    valid += p.z() == p.z();
+  for (int v = v_lo; v < v_hi; ++v) {
+    const std::size_t row = static_cast<std::size_t>(v - v_lo) * out_stride;
+    for (int u = u_lo; u < u_hi; ++u) {
+      const Eigen::Vector3f p =
+          crop_point(depth[(v - v_lo) * frame.width + u], rays.at(u, v), crop);
+      const std::size_t k = row + static_cast<std::size_t>(u - u_lo);
+      x[k] = p.x(), y[k] = p.y(), z[k] = p.z();
+      valid += p.z() == p.z();
+    }
   }
   return valid;
 }
@@ -250,8 +280,8 @@ OrganizedCloud crop_sphere(const DepthFrame& frame, const Eigen::Vector3d& depth
   const detail::WindowRays rays(frame, crop);
   std::vector<float> planes(3 * static_cast<std::size_t>(w));
   for (int j = 0; j < h; ++j) {
-    detail::crop_row(frame, crop, rays, crop.v_lo + j, crop.u_lo, crop.u_hi, planes.data(),
-                     planes.data() + w, planes.data() + 2 * w);
+    detail::crop_rows(frame, crop, rays, crop.v_lo + j, crop.v_lo + j + 1, crop.u_lo, crop.u_hi,
+                      planes.data(), planes.data() + w, planes.data() + 2 * w, 0);
     Eigen::Vector3f* out = &cloud.points[static_cast<std::size_t>(j) * w];
     for (int i = 0; i < w; ++i) out[i] = {planes[i], planes[w + i], planes[2 * w + i]};
   }

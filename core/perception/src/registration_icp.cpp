@@ -346,12 +346,15 @@ class ScenePyramid {
       const Level& base = levels_[0];
       const int u_lo = std::max(U0, base.u0), u_hi = std::min(U0 + kTile, base.u0 + base.width);
       const int v_lo = std::max(V0, base.v0), v_hi = std::min(V0 + kTile, base.v0 + base.height);
-      for (int v = v_lo; v < v_hi; ++v) {
-        const std::size_t row = base.cell(u_lo - base.u0, v - base.v0);
-        if (frame_ != nullptr) {
-          level0_valid_ += detail::crop_row(*frame_, crop_, *rays_, v, u_lo, u_hi, base.x + row,
-                                            base.y + row, base.z + row);
-        } else {
+      if (frame_ != nullptr) {
+        // The tile's rows in one call: a vector loop of the tile's width with no remainder.
+        const std::size_t row = base.cell(u_lo - base.u0, v_lo - base.v0);
+        level0_valid_ +=
+            detail::crop_rows(*frame_, crop_, *rays_, v_lo, v_hi, u_lo, u_hi, base.x + row,
+                              base.y + row, base.z + row, static_cast<std::size_t>(base.width));
+      } else {
+        for (int v = v_lo; v < v_hi; ++v) {
+          const std::size_t row = base.cell(u_lo - base.u0, v - base.v0);
           const Eigen::Vector3f* in = &cloud_->at(u_lo - base.u0, v - base.v0);
           for (int k = 0; k < u_hi - u_lo; ++k) {
             base.x[row + k] = in[k].x(), base.y[row + k] = in[k].y(), base.z[row + k] = in[k].z();
@@ -450,22 +453,46 @@ struct MovedModel {
   std::size_t n = 0;
   float *px, *py, *pz, *nx, *ny, *nz, *u, *v;
   int* seen;
+  // After land(level, count): the `hits` of the first `count` points seen inside the level's
+  // window, in index order, at hit[0, hits); point k lands on pixel (i[k], j[k]).
+  int *i, *j, *in, *hit;
+  std::size_t hits = 0;
   MovedModel(std::size_t capacity, Scratch& scratch) {
     for (float** plane : {&px, &py, &pz, &nx, &ny, &nz, &u, &v}) {
       *plane = scratch.take<float>(capacity);
     }
-    seen = scratch.take<int>(capacity);
+    for (int** plane : {&seen, &i, &j, &in, &hit}) *plane = scratch.take<int>(capacity);
   }
   Eigen::Vector3f p(std::size_t k) const { return {px[k], py[k], pz[k]}; }
   Eigen::Vector3f normal(std::size_t k) const { return {nx[k], ny[k], nz[k]}; }
-  // The pixel at `level`; false outside its window.
-  bool pixel(std::size_t k, const Level& level, int& i, int& j) const {
-    const float inv_s = 1.0f / static_cast<float>(level.scale);
-    i = static_cast<int>(u[k] * inv_s) - level.u0;
-    j = static_cast<int>(v[k] * inv_s) - level.v0;
-    return level.contains(i, j);
-  }
+  inline void land(const Level& level, std::size_t count);
 };
+
+// MovedModel::land's pixels in one pass the compiler vectorizes: every point's pixel, and
+// whether it is seen inside the window.
+PROJTOUR_VECTOR_CLONES void land_points(std::size_t n, const float* __restrict__ u,
+                                        const float* __restrict__ v, const int* __restrict__ seen,
+                                        float inv_scale, int u0, int v0, int width, int height,
+                                        int* __restrict__ i, int* __restrict__ j,
+                                        int* __restrict__ in) {
+  for (std::size_t k = 0; k < n; ++k) {
+    const int a = static_cast<int>(u[k] * inv_scale) - u0;
+    const int b = static_cast<int>(v[k] * inv_scale) - v0;
+    i[k] = a, j[k] = b;
+    // One unsigned comparison per axis rejects both sides of the window.
+    in[k] = seen[k] & (static_cast<unsigned>(a) < static_cast<unsigned>(width)) &
+            (static_cast<unsigned>(b) < static_cast<unsigned>(height));
+  }
+}
+
+void MovedModel::land(const Level& level, std::size_t count) {
+  land_points(count, u, v, seen, 1.0f / static_cast<float>(level.scale), level.u0, level.v0,
+              level.width, level.height, i, j, in);
+  // Gathered without a branch to mispredict: every index is written, only hits advance.
+  std::size_t m = 0;
+  for (std::size_t k = 0; k < count; ++k) hit[m] = static_cast<int>(k), m += in[k];
+  hits = m;
+}
 
 // A pixel beyond this is off any image; it keeps the conversion to int in range.
 constexpr float kFarPixel = 1e7f;
@@ -716,17 +743,16 @@ class NormalEquations {
 // The model's own depth image at 1/4 resolution (every model point facing the camera splatted
 // into its cell), so points hidden behind another part of the model (the ears, the far flank)
 // count neither for nor against a pose.
-float* model_depth_buffer(const MovedModel& moved, const Level& grid, const Projector& projector,
+float* model_depth_buffer(MovedModel& moved, const Level& grid, const Projector& projector,
                           Scratch& scratch) {
   const std::size_t cells = static_cast<std::size_t>(grid.width) * grid.height;
   float* z_buffer = scratch.take<float>(cells);
   std::fill(z_buffer, z_buffer + cells, std::numeric_limits<float>::infinity());
   // A prefix dense enough to cover every cell of a target at working distance.
-  const std::size_t n = std::min<std::size_t>(moved.n, 8000);
-  for (std::size_t k = 0; k < n; ++k) {
-    int i, j;
-    if (!moved.seen[k] || !moved.pixel(k, grid, i, j)) continue;
-    float& z = z_buffer[grid.cell(i, j)];
+  moved.land(grid, std::min<std::size_t>(moved.n, 8000));
+  for (std::size_t h = 0; h < moved.hits; ++h) {
+    const int k = moved.hit[h];
+    float& z = z_buffer[grid.cell(moved.i[k], moved.j[k])];
     z = std::min(z, moved.pz[k] - projector.origin().z());
   }
   return z_buffer;
@@ -755,10 +781,12 @@ std::size_t visit_inliers(const IcpModel& model, const Level& level, const Proje
   const float inlier_m = static_cast<float>(options.inlier_distance_m);
   const float hidden_m = std::max(0.01f, 2.0f * inlier_m);
   std::size_t candidates = 0;
-  for (std::size_t k = 0; k < n_model; ++k) {
-    int i, j, gi, gj;
-    if (!moved.seen[k] || !moved.pixel(k, level, i, j) || !moved.pixel(k, grid, gi, gj)) continue;
-    const float z_front = z_buffer[grid.cell(gi, gj)];
+  moved.land(level, n_model);
+  for (std::size_t h = 0; h < moved.hits; ++h) {
+    const int k = moved.hit[h], i = moved.i[k], j = moved.j[k];
+    // The grid's cells are blocks of 4x4 of the level's pixels, and hold its whole window.
+    const float z_front =
+        z_buffer[grid.cell(((level.u0 + i) >> 2) - grid.u0, ((level.v0 + j) >> 2) - grid.v0)];
     if (moved.pz[k] - projector.origin().z() > z_front + hidden_m) continue;
     ++candidates;
     level.ensure(i, j);
@@ -820,9 +848,9 @@ RegistrationResult run_schedule(const IcpModel& model, const ScenePyramid& pyram
       projector.move(model, n_model, T, moved);
       equations.clear();
       std::size_t matched = 0;
-      for (std::size_t k = 0; k < n_model; ++k) {
-        int i, j;
-        if (!moved.seen[k] || !moved.pixel(k, level, i, j)) continue;
+      moved.land(level, n_model);
+      for (std::size_t h = 0; h < moved.hits; ++h) {
+        const int k = moved.hit[h], i = moved.i[k], j = moved.j[k];
         const Eigen::Vector3f p = moved.p(k);
         Eigen::Vector3f q;
         int qi, qj;
