@@ -69,6 +69,14 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+// A pyramid level's planes hold this many floats past their last pixel, so the nearest-point
+// search may read a row's last group of four past the window's right edge (those lanes are
+// masked before they count).
+#if defined(__SSE2__)
+constexpr std::size_t kPlanePad = 4;
+#else
+constexpr std::size_t kPlanePad = 0;
+#endif
 
 // Buffers an alignment fills anew and throws away: kept per thread from one alignment to the
 // next, so the tracking loop allocates (and the kernel maps fresh pages) only on its first frames.
@@ -327,9 +335,9 @@ class ScenePyramid {
       level.index = l;
       level.pyramid = this;
       const std::size_t cells = static_cast<std::size_t>(level.width) * level.height;
-      level.x = scratch.take<float>(cells);
-      level.y = scratch.take<float>(cells);
-      level.z = scratch.take<float>(cells);
+      level.x = scratch.take<float>(cells + kPlanePad);
+      level.y = scratch.take<float>(cells + kPlanePad);
+      level.z = scratch.take<float>(cells + kPlanePad);
     }
     tile_u0_ = u0 >> kTileShift;
     tile_v0_ = v0 >> kTileShift;
@@ -649,19 +657,14 @@ class SceneNormals {
   float* normals_[3];
 };
 
-// The scene point for a model point at pixel (i, j): there, or the nearest within +-radius.
-bool associate(const Level& level, const Eigen::Vector3f& p, int i, int j, int radius_px,
-               Eigen::Vector3f& q, int& qi, int& qj) {
-  if (radius_px == 0) {
-    level.ensure(i, j);
-    if (!level.valid(i, j)) return false;
-    q = level.at(i, j), qi = i, qj = j;
-    return true;
-  }
+// The first nearest scene point in row-major order to p over rows [j_lo, j_hi] and columns
+// [i_lo, i_hi]: the scalar search, and where the window lies inside the level and is at most 8
+// wide (the coarse stages' +-1 and +-2) its rows four columns at a time. Both compute each
+// distance with the same operations in the same order and keep the same pixel: a NaN distance
+// (no point) never compares below the best, and a lane keeps the earliest row of its minimum.
+bool nearest_scalar(const Level& level, const Eigen::Vector3f& p, int i_lo, int i_hi, int j_lo,
+                    int j_hi, int& qi, int& qj) {
   float best = std::numeric_limits<float>::max();
-  const int i_lo = std::max(0, i - radius_px), i_hi = std::min(level.width - 1, i + radius_px);
-  const int j_lo = std::max(0, j - radius_px), j_hi = std::min(level.height - 1, j + radius_px);
-  level.ensure(i_lo, i_hi, j_lo, j_hi);
   for (int b = j_lo; b <= j_hi; ++b) {
     const std::size_t row = level.cell(0, b);
     for (int a = i_lo; a <= i_hi; ++a) {
@@ -672,7 +675,80 @@ bool associate(const Level& level, const Eigen::Vector3f& p, int i, int j, int r
       if (d2 < best) best = d2, qi = a, qj = b;
     }
   }
-  if (best == std::numeric_limits<float>::max()) return false;
+  return best != std::numeric_limits<float>::max();
+}
+
+#if defined(__SSE2__)
+bool nearest_in_window(const Level& level, const Eigen::Vector3f& p, int i_lo, int i_hi, int j_lo,
+                       int j_hi, int& qi, int& qj) {
+  const int w = i_hi - i_lo + 1;
+  if (w > 8) return nearest_scalar(level, p, i_lo, i_hi, j_lo, j_hi, qi, qj);
+  const __m128 far = _mm_set1_ps(std::numeric_limits<float>::max());
+  const __m128 px = _mm_set1_ps(p.x()), py = _mm_set1_ps(p.y()), pz = _mm_set1_ps(p.z());
+  const __m128i lane = _mm_setr_epi32(0, 1, 2, 3);
+  const __m128 keep0 = _mm_castsi128_ps(_mm_cmplt_epi32(lane, _mm_set1_epi32(w)));
+  const __m128 keep1 = _mm_castsi128_ps(_mm_cmplt_epi32(lane, _mm_set1_epi32(w - 4)));
+  const auto select = [](__m128 mask, __m128 a, __m128 b) {
+    return _mm_or_ps(_mm_and_ps(mask, a), _mm_andnot_ps(mask, b));
+  };
+  const auto distances = [&](std::size_t c, __m128 keep) {
+    const __m128 dz = _mm_sub_ps(_mm_loadu_ps(level.z + c), pz);
+    const __m128 dx = _mm_sub_ps(_mm_loadu_ps(level.x + c), px);
+    const __m128 dy = _mm_sub_ps(_mm_loadu_ps(level.y + c), py);
+    const __m128 d2 =
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+    return select(keep, d2, far);
+  };
+  __m128 best0 = far, best1 = far;
+  __m128 row0 = _mm_setzero_ps(), row1 = _mm_setzero_ps();  // rows as int bits
+  for (int b = j_lo; b <= j_hi; ++b) {
+    const std::size_t c = level.cell(i_lo, b);
+    const __m128 row = _mm_castsi128_ps(_mm_set1_epi32(b));
+    const __m128 d0 = distances(c, keep0);
+    const __m128 less0 = _mm_cmplt_ps(d0, best0);
+    best0 = select(less0, d0, best0), row0 = select(less0, row, row0);
+    if (w > 4) {
+      const __m128 d1 = distances(c + 4, keep1);
+      const __m128 less1 = _mm_cmplt_ps(d1, best1);
+      best1 = select(less1, d1, best1), row1 = select(less1, row, row1);
+    }
+  }
+  alignas(16) float best[8];
+  alignas(16) int rows[8];
+  _mm_store_ps(best, best0), _mm_store_ps(best + 4, best1);
+  _mm_store_si128(reinterpret_cast<__m128i*>(rows), _mm_castps_si128(row0));
+  _mm_store_si128(reinterpret_cast<__m128i*>(rows + 4), _mm_castps_si128(row1));
+  float m = std::numeric_limits<float>::max();
+  for (int a = 0; a < w; ++a) m = std::min(m, best[a]);
+  if (m == std::numeric_limits<float>::max()) return false;
+  // Among the columns reaching the minimum, the earliest row, then the leftmost column.
+  int first = -1;
+  for (int a = 0; a < w; ++a) {
+    if (best[a] == m && (first < 0 || rows[a] < rows[first])) first = a;
+  }
+  qi = i_lo + first, qj = rows[first];
+  return true;
+}
+#else
+bool nearest_in_window(const Level& level, const Eigen::Vector3f& p, int i_lo, int i_hi, int j_lo,
+                       int j_hi, int& qi, int& qj) {
+  return nearest_scalar(level, p, i_lo, i_hi, j_lo, j_hi, qi, qj);
+}
+#endif
+
+// The scene point for a model point at pixel (i, j): there, or the nearest within +-radius.
+bool associate(const Level& level, const Eigen::Vector3f& p, int i, int j, int radius_px,
+               Eigen::Vector3f& q, int& qi, int& qj) {
+  if (radius_px == 0) {
+    level.ensure(i, j);
+    if (!level.valid(i, j)) return false;
+    q = level.at(i, j), qi = i, qj = j;
+    return true;
+  }
+  const int i_lo = std::max(0, i - radius_px), i_hi = std::min(level.width - 1, i + radius_px);
+  const int j_lo = std::max(0, j - radius_px), j_hi = std::min(level.height - 1, j + radius_px);
+  level.ensure(i_lo, i_hi, j_lo, j_hi);
+  if (!nearest_in_window(level, p, i_lo, i_hi, j_lo, j_hi, qi, qj)) return false;
   q = level.at(qi, qj);
   return true;
 }
@@ -690,28 +766,49 @@ Eigen::Isometry3d apply_twist(const Eigen::Matrix<double, 6, 1>& xi, const Eigen
 }
 
 // The Gauss-Newton system of point-to-plane matches: J = (p x n, n), summed as w J J^T and
-// w r J. The matches are kept as planes and summed in lanes of floats the compiler turns into
-// vector instructions, lane by lane in a fixed order, so the sums are the same on every run.
+// w r J. The matches are kept as planes and, once the association is done, weighed and turned
+// into J and w J in passes the compiler vectorizes, then summed in lanes of floats lane by lane
+// in a fixed order, so the sums are the same on every run.
 class NormalEquations {
  public:
   NormalEquations(std::size_t capacity, Scratch& scratch) {
+    for (float*& plane : matches_) plane = scratch.take<float>(capacity);
+    for (float*& plane : kept_planes_) plane = scratch.take<float>(capacity);
+    weights_ = scratch.take<float>(capacity);
+    kept_ = scratch.take<int>(capacity);
     // Room for a whole last block of lanes, zeroed before each sum.
     for (float*& plane : planes_) plane = scratch.take<float>(capacity + kLanes);
   }
   void clear() { m_ = 0; }
-  std::size_t size() const { return m_; }
-  // Planes 0-5 hold J, 6-11 w J and 12 the residual.
-  void add(const Eigen::Vector3f& p, const Eigen::Vector3f& n, float r, float w) {
-    const Eigen::Vector3f pxn = p.cross(n);
-    const float J[6] = {pxn.x(), pxn.y(), pxn.z(), n.x(), n.y(), n.z()};
-    for (int a = 0; a < 6; ++a) planes_[a][m_] = J[a], planes_[6 + a][m_] = w * J[a];
-    planes_[12][m_] = r;
+  // A match: the model point p, its normal n and the point-to-plane residual r, all in the
+  // camera frame.
+  void add(const Eigen::Vector3f& p, const Eigen::Vector3f& n, float r) {
+    matches_[0][m_] = p.x(), matches_[1][m_] = p.y(), matches_[2][m_] = p.z();
+    matches_[3][m_] = n.x(), matches_[4][m_] = n.y(), matches_[5][m_] = n.z();
+    matches_[6][m_] = r;
     ++m_;
+  }
+  // Tukey's biweight of each residual over tukey_c (none when tukey_c <= 0, all weigh 1); the
+  // matches beyond it drop out. Then J and w J of those kept, in their order.
+  void weigh(double tukey_c) {
+    tukey_weights(m_, matches_[6], tukey_c, weights_, kept_);
+    // Gathered without a branch: every match is written, only those kept advance.
+    std::size_t m = 0;
+    float* const* kept = kept_planes_;
+    for (std::size_t k = 0; k < m_; ++k) {
+      for (int c = 0; c < 6; ++c) kept[c][m] = matches_[c][k];
+      kept[6][m] = weights_[k], planes_[12][m] = matches_[6][k];
+      m += static_cast<std::size_t>(kept_[k]);
+    }
+    kept_count_ = m;
+    float* const* J = planes_;
+    jacobians(m, kept[0], kept[1], kept[2], kept[3], kept[4], kept[5], kept[6], J[0], J[1], J[2],
+              J[3], J[4], J[5], J[6], J[7], J[8], J[9], J[10], J[11]);
   }
   void solve_inputs(Eigen::Matrix<double, 6, 6>& H, Eigen::Matrix<double, 6, 1>& g) {
     // The last block padded with zero weights, so every block is whole.
-    const std::size_t blocks = (m_ + kLanes - 1) / kLanes;
-    for (std::size_t k = m_; k < blocks * kLanes; ++k) {
+    const std::size_t blocks = (kept_count_ + kLanes - 1) / kLanes;
+    for (std::size_t k = kept_count_; k < blocks * kLanes; ++k) {
       for (float* plane : planes_) plane[k] = 0.0f;
     }
     // Sum by sum over all blocks, so a sum's lanes stay in registers.
@@ -724,6 +821,39 @@ class NormalEquations {
 
  private:
   static constexpr int kLanes = 8;
+  PROJTOUR_VECTOR_CLONES static void tukey_weights(std::size_t n, const float* __restrict__ r,
+                                                   double tukey_c, float* __restrict__ w,
+                                                   int* __restrict__ kept) {
+    if (!(tukey_c > 0.0)) {
+      for (std::size_t k = 0; k < n; ++k) w[k] = 1.0f, kept[k] = 1;
+      return;
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+      const double u = static_cast<double>(r[k]) / tukey_c;
+      const double v = 1.0 - u * u;
+      w[k] = static_cast<float>(v * v);
+      kept[k] = !(std::abs(u) >= 1.0);
+    }
+  }
+  // J = (p x n, n) and w J of the kept matches (planes p, n, w), into planes 0-5 and 6-11.
+  PROJTOUR_VECTOR_CLONES static void jacobians(
+      std::size_t n, const float* __restrict__ px, const float* __restrict__ py,
+      const float* __restrict__ pz, const float* __restrict__ nx, const float* __restrict__ ny,
+      const float* __restrict__ nz, const float* __restrict__ w, float* __restrict__ j0,
+      float* __restrict__ j1, float* __restrict__ j2, float* __restrict__ j3,
+      float* __restrict__ j4, float* __restrict__ j5, float* __restrict__ w0,
+      float* __restrict__ w1, float* __restrict__ w2, float* __restrict__ w3,
+      float* __restrict__ w4, float* __restrict__ w5) {
+    for (std::size_t k = 0; k < n; ++k) {
+      // Eigen's cross product, term by term.
+      const float a = py[k] * nz[k] - pz[k] * ny[k];
+      const float b = pz[k] * nx[k] - px[k] * nz[k];
+      const float c = px[k] * ny[k] - py[k] * nx[k];
+      j0[k] = a, j1[k] = b, j2[k] = c, j3[k] = nx[k], j4[k] = ny[k], j5[k] = nz[k];
+      w0[k] = w[k] * a, w1[k] = w[k] * b, w2[k] = w[k] * c;
+      w3[k] = w[k] * nx[k], w4[k] = w[k] * ny[k], w5[k] = w[k] * nz[k];
+    }
+  }
   // Sum of a[k] b[k] over whole blocks: lane by lane in block order, then the lanes in order.
   PROJTOUR_VECTOR_CLONES static double sum_products(std::size_t blocks, const float* __restrict__ a,
                                                     const float* __restrict__ b) {
@@ -736,8 +866,12 @@ class NormalEquations {
     for (int lane = 0; lane < kLanes; ++lane) total += lanes[lane];
     return total;
   }
+  float* matches_[7];      // p, n, r of every match
+  float* kept_planes_[7];  // p, n, w of those kept
+  float* weights_;
+  int* kept_;
   float* planes_[13];
-  std::size_t m_ = 0;
+  std::size_t m_ = 0, kept_count_ = 0;
 };
 
 // The model's own depth image at 1/4 resolution (every model point facing the camera splatted
@@ -860,14 +994,7 @@ RegistrationResult run_schedule(const IcpModel& model, const ScenePyramid& pyram
         const Eigen::Vector3f ns = level_normals->at(qi, qj, projector.origin());
         if (ns.isZero() || ns.dot(n) < cos_max_angle) continue;
         ++matched;
-        const double r = n.dot(p - q);
-        double w = 1.0;
-        if (tukey_c > 0.0) {
-          const double u = r / tukey_c;
-          if (std::abs(u) >= 1.0) continue;
-          w = (1.0 - u * u) * (1.0 - u * u);
-        }
-        equations.add(p, n, static_cast<float>(r), static_cast<float>(w));
+        equations.add(p, n, n.dot(p - q));
       }
       ++result.iterations;
       if (matched < 12) {
@@ -876,6 +1003,7 @@ RegistrationResult run_schedule(const IcpModel& model, const ScenePyramid& pyram
       }
       Eigen::Matrix<double, 6, 6> H;
       Eigen::Matrix<double, 6, 1> g;
+      equations.weigh(tukey_c);
       equations.solve_inputs(H, g);
       // A touch of damping keeps a flat or symmetric patch from making the solve singular.
       H.diagonal().array() += 1e-9 + 1e-6 * H.diagonal().maxCoeff();
