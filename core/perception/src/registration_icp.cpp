@@ -469,7 +469,8 @@ struct MovedModel {
     for (float** plane : {&px, &py, &pz, &nx, &ny, &nz, &u, &v}) {
       *plane = scratch.take<float>(capacity);
     }
-    for (int** plane : {&seen, &i, &j, &in, &hit}) *plane = scratch.take<int>(capacity);
+    for (int** plane : {&seen, &i, &j, &in}) *plane = scratch.take<int>(capacity);
+    hit = scratch.take<int>(capacity + 4);  // gather_hits writes whole groups of four
   }
   Eigen::Vector3f p(std::size_t k) const { return {px[k], py[k], pz[k]}; }
   Eigen::Vector3f normal(std::size_t k) const { return {nx[k], ny[k], nz[k]}; }
@@ -493,13 +494,47 @@ PROJTOUR_VECTOR_CLONES void land_points(std::size_t n, const float* __restrict__
   }
 }
 
+// The indices k in [0, n) with in[k] set, in order, at hit[0, returned); hit has room for n + 4.
+// Without a branch to mispredict: every index (or group of four) is written, only hits advance.
+#if defined(__SSE2__)
+std::size_t gather_hits(std::size_t n, const int* __restrict__ in, int* __restrict__ hit) {
+  // For each pattern of four flags, the lanes set, in order, and how many.
+  struct Pattern {
+    alignas(16) int lanes[4];
+    int count;
+  };
+  static constexpr Pattern kPatterns[16] = {
+      {{0, 0, 0, 0}, 0}, {{0, 0, 0, 0}, 1}, {{1, 0, 0, 0}, 1}, {{0, 1, 0, 0}, 2},
+      {{2, 0, 0, 0}, 1}, {{0, 2, 0, 0}, 2}, {{1, 2, 0, 0}, 2}, {{0, 1, 2, 0}, 3},
+      {{3, 0, 0, 0}, 1}, {{0, 3, 0, 0}, 2}, {{1, 3, 0, 0}, 2}, {{0, 1, 3, 0}, 3},
+      {{2, 3, 0, 0}, 2}, {{0, 2, 3, 0}, 3}, {{1, 2, 3, 0}, 3}, {{0, 1, 2, 3}, 4},
+  };
+  const __m128i zero = _mm_setzero_si128();
+  std::size_t m = 0, k = 0;
+  for (; k + 4 <= n; k += 4) {
+    const __m128i flags = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in + k));
+    const int mask = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpgt_epi32(flags, zero)));
+    const Pattern& p = kPatterns[mask];
+    const __m128i lanes = _mm_load_si128(reinterpret_cast<const __m128i*>(p.lanes));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(hit + m),
+                     _mm_add_epi32(lanes, _mm_set1_epi32(static_cast<int>(k))));
+    m += static_cast<std::size_t>(p.count);
+  }
+  for (; k < n; ++k) hit[m] = static_cast<int>(k), m += static_cast<std::size_t>(in[k]);
+  return m;
+}
+#else
+std::size_t gather_hits(std::size_t n, const int* __restrict__ in, int* __restrict__ hit) {
+  std::size_t m = 0;
+  for (std::size_t k = 0; k < n; ++k) hit[m] = static_cast<int>(k), m += in[k];
+  return m;
+}
+#endif
+
 void MovedModel::land(const Level& level, std::size_t count) {
   land_points(count, u, v, seen, 1.0f / static_cast<float>(level.scale), level.u0, level.v0,
               level.width, level.height, i, j, in);
-  // Gathered without a branch to mispredict: every index is written, only hits advance.
-  std::size_t m = 0;
-  for (std::size_t k = 0; k < count; ++k) hit[m] = static_cast<int>(k), m += in[k];
-  hits = m;
+  hits = gather_hits(count, in, hit);
 }
 
 // A pixel beyond this is off any image; it keeps the conversion to int in range.
