@@ -362,13 +362,22 @@ Outcome Verify::measure(Context& ctx) {
                        fixed(spread_bound_mm, 1) + " mm, exceed the tolerance of " +
                        fixed(result_.tolerance_mm, 1) + " mm); " + error_text};
   }
-  // The light lands where the aligned pose put it and the pose is what misses: slide it. Where
-  // the light misses the aligned pose too, the calibration is mended first.
+  // The light lands where the aligned pose put it and the pose is what misses: move it. Where
+  // the light misses the aligned pose too, the calibration is mended first. A move the outline
+  // sees beyond the tolerance at any Model Point is made and looked at again even when the error
+  // reads within it: the error is measured against where the outline puts the Model Points, and
+  // a rough face blurs that reading (a sign turned 0.2 deg read 2.6 mm, the referee's 3.1 mm).
+  // Below the tolerance a move is made only for an error beyond it: a faint edge's pixel of
+  // doubt moves a bunny's Model Points 1.6 mm that are not there.
   const double at_pose_mm = sum_at_pose_mm / seen;
-  if (*result_.observed_error_mm > result_.tolerance_mm && clear &&
-      1e3 * slide.norm() > 0.5 * result_.tolerance_mm && at_pose_mm <= result_.tolerance_mm) {
-    return correct_pose(error_text + " exceeds the tolerance of " + fixed(result_.tolerance_mm, 1) +
-                        " mm, the light " + fixed(at_pose_mm, 2) +
+  double moves_mm = 0.0;
+  for (const Eigen::Vector3d& s : slide_at) moves_mm = std::max(moves_mm, 1e3 * s.norm());
+  const bool beyond = *result_.observed_error_mm > result_.tolerance_mm;
+  if (clear && moves_mm > (beyond ? 0.5 : 1.0) * result_.tolerance_mm &&
+      at_pose_mm <= result_.tolerance_mm) {
+    return correct_pose(error_text + (beyond ? " exceeds" : " is within") + " the tolerance of " +
+                        fixed(result_.tolerance_mm, 1) + " mm, the outline moves a Model Point " +
+                        fixed(moves_mm, 2) + " mm, the light " + fixed(at_pose_mm, 2) +
                         " mm from the aligned pose's corners");
   }
   if (*result_.observed_error_mm > result_.tolerance_mm) {

@@ -152,9 +152,11 @@ TEST_F(ClosedLoop, RoughModelIsUncertainNeverProjectedUnvouched) {
 // Regression: with a rough scan the sign-south model's fit was turned about 0.2 deg about its own
 // normal; the outline's shift did not hold the turn, verify measured the light 2.1 mm from the
 // Model Points it believed, and the visit was reported projected at 3.4 mm of real error. The
-// outline's turn now moves each Model Point: the first look is out of tolerance, the pose turns
-// with the outline, the second look passes, and no visit of the tour is projected beyond its
-// tolerance.
+// outline's turn now moves each Model Point: the first look sees the pose move a Model Point
+// beyond the tolerance, the pose turns with the outline, the second look passes, and no visit of
+// the tour is projected beyond its tolerance. A second regression: with the coarser ICP schedule
+// of issue 18 the first look read 2.6 mm, within the tolerance, while the referee measured
+// 3.1 mm: a move the outline sees beyond the tolerance is made however the error reads.
 TEST_F(ClosedLoop, RoughSignTurnedAboutItsNormalIsCaughtByItsOutline) {
   mission_ = "../../../missions/demo_tour.yaml";
   const DryRunResult r = dry_run("w_rough_sign_turned.yaml", "run");
@@ -171,7 +173,10 @@ TEST_F(ClosedLoop, RoughSignTurnedAboutItsNormalIsCaughtByItsOutline) {
   const std::string first = first_message(r.events, "sign-south", "verify");
   EXPECT_TRUE(std::regex_search(first, std::regex("turned 0\\.[12][0-9] deg, 2 directions fixed")))
       << first;
-  EXPECT_NE(first.find("exceeds the tolerance"), std::string::npos) << first;
+  EXPECT_TRUE(std::regex_search(
+      first,
+      std::regex("the tolerance of 3.0 mm, the outline moves a Model Point [3-9]\\.[0-9]+ mm")))
+      << first;
   const Json& sign = report_target(r.report, "sign-south");
   EXPECT_EQ(sign.at("outcome").get<std::string>(), "projected") << sign.dump();
   EXPECT_LE(std::abs(sign.at("observed_error_mm").get<double>() - after_align_mm(sign)), 2.0)

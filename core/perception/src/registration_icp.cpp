@@ -29,8 +29,8 @@ std::vector<IcpStage> IcpOptions::default_stages() {
   // Coarse levels see the whole target in few pixels, and their window lets a model point find
   // its surface several centimetres away; the fine levels then settle on the noise floor.
   return {
-      {3, 250, 2, 0.15, 6, true}, {3, 250, 2, 0.10, 6},  {2, 500, 1, 0.04, 5},
-      {1, 1000, 0, 0.02, 4},      {0, 6000, 0, 0.01, 2},
+      {4, 250, 1, 0.15, 6, true}, {3, 250, 1, 0.10, 6},  {2, 500, 1, 0.04, 5},
+      {1, 1000, 0, 0.02, 4},      {0, 4500, 0, 0.01, 2},
   };
 }
 
@@ -496,8 +496,9 @@ PROJTOUR_VECTOR_CLONES void land_points(std::size_t n, const float* __restrict__
 
 // The indices k in [0, n) with in[k] set, in order, at hit[0, returned); hit has room for n + 4.
 // Without a branch to mispredict: every index (or group of four) is written, only hits advance.
-#if defined(__SSE2__)
 std::size_t gather_hits(std::size_t n, const int* __restrict__ in, int* __restrict__ hit) {
+  std::size_t m = 0, k = 0;
+#if defined(__SSE2__)
   // For each pattern of four flags, the lanes set, in order, and how many.
   struct Pattern {
     alignas(16) int lanes[4];
@@ -510,7 +511,6 @@ std::size_t gather_hits(std::size_t n, const int* __restrict__ in, int* __restri
       {{2, 3, 0, 0}, 2}, {{0, 2, 3, 0}, 3}, {{1, 2, 3, 0}, 3}, {{0, 1, 2, 3}, 4},
   };
   const __m128i zero = _mm_setzero_si128();
-  std::size_t m = 0, k = 0;
   for (; k + 4 <= n; k += 4) {
     const __m128i flags = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in + k));
     const int mask = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpgt_epi32(flags, zero)));
@@ -520,16 +520,10 @@ std::size_t gather_hits(std::size_t n, const int* __restrict__ in, int* __restri
                      _mm_add_epi32(lanes, _mm_set1_epi32(static_cast<int>(k))));
     m += static_cast<std::size_t>(p.count);
   }
+#endif
   for (; k < n; ++k) hit[m] = static_cast<int>(k), m += static_cast<std::size_t>(in[k]);
   return m;
 }
-#else
-std::size_t gather_hits(std::size_t n, const int* __restrict__ in, int* __restrict__ hit) {
-  std::size_t m = 0;
-  for (std::size_t k = 0; k < n; ++k) hit[m] = static_cast<int>(k), m += in[k];
-  return m;
-}
-#endif
 
 void MovedModel::land(const Level& level, std::size_t count) {
   land_points(count, u, v, seen, 1.0f / static_cast<float>(level.scale), level.u0, level.v0,
@@ -714,10 +708,10 @@ bool nearest_scalar(const Level& level, const Eigen::Vector3f& p, int i_lo, int 
 }
 
 #if defined(__SSE2__)
-bool nearest_in_window(const Level& level, const Eigen::Vector3f& p, int i_lo, int i_hi, int j_lo,
-                       int j_hi, int& qi, int& qj) {
+// The same search four columns at a time, for windows up to 8 wide.
+bool nearest_narrow(const Level& level, const Eigen::Vector3f& p, int i_lo, int i_hi, int j_lo,
+                    int j_hi, int& qi, int& qj) {
   const int w = i_hi - i_lo + 1;
-  if (w > 8) return nearest_scalar(level, p, i_lo, i_hi, j_lo, j_hi, qi, qj);
   const __m128 far = _mm_set1_ps(std::numeric_limits<float>::max());
   const __m128 px = _mm_set1_ps(p.x()), py = _mm_set1_ps(p.y()), pz = _mm_set1_ps(p.z());
   const __m128i lane = _mm_setr_epi32(0, 1, 2, 3);
@@ -764,12 +758,15 @@ bool nearest_in_window(const Level& level, const Eigen::Vector3f& p, int i_lo, i
   qi = i_lo + first, qj = rows[first];
   return true;
 }
-#else
+#endif
+
 bool nearest_in_window(const Level& level, const Eigen::Vector3f& p, int i_lo, int i_hi, int j_lo,
                        int j_hi, int& qi, int& qj) {
+#if defined(__SSE2__)
+  if (i_hi - i_lo < 8) return nearest_narrow(level, p, i_lo, i_hi, j_lo, j_hi, qi, qj);
+#endif
   return nearest_scalar(level, p, i_lo, i_hi, j_lo, j_hi, qi, qj);
 }
-#endif
 
 // The scene point for a model point at pixel (i, j): there, or the nearest within +-radius.
 bool associate(const Level& level, const Eigen::Vector3f& p, int i, int j, int radius_px,
@@ -815,6 +812,7 @@ class NormalEquations {
     for (float*& plane : planes_) plane = scratch.take<float>(capacity + kLanes);
   }
   void clear() { m_ = 0; }
+  std::size_t size() const { return m_; }
   // A match: the model point p, its normal n and the point-to-plane residual r, all in the
   // camera frame.
   void add(const Eigen::Vector3f& p, const Eigen::Vector3f& n, float r) {
@@ -827,18 +825,26 @@ class NormalEquations {
   // matches beyond it drop out. Then J and w J of those kept, in their order.
   void weigh(double tukey_c) {
     tukey_weights(m_, matches_[6], tukey_c, weights_, kept_);
-    // Gathered without a branch: every match is written, only those kept advance.
-    std::size_t m = 0;
-    float* const* kept = kept_planes_;
-    for (std::size_t k = 0; k < m_; ++k) {
-      for (int c = 0; c < 6; ++c) kept[c][m] = matches_[c][k];
-      kept[6][m] = weights_[k], planes_[12][m] = matches_[6][k];
-      m += static_cast<std::size_t>(kept_[k]);
-    }
-    kept_count_ = m;
     float* const* J = planes_;
-    jacobians(m, kept[0], kept[1], kept[2], kept[3], kept[4], kept[5], kept[6], J[0], J[1], J[2],
-              J[3], J[4], J[5], J[6], J[7], J[8], J[9], J[10], J[11]);
+    const float* const* kept = matches_;
+    const float* w = weights_;
+    if (tukey_c > 0.0) {
+      // Gathered without a branch: every match is written, only those kept advance.
+      std::size_t m = 0;
+      for (std::size_t k = 0; k < m_; ++k) {
+        for (int c = 0; c < 6; ++c) kept_planes_[c][m] = matches_[c][k];
+        kept_planes_[6][m] = weights_[k], planes_[12][m] = matches_[6][k];
+        m += static_cast<std::size_t>(kept_[k]);
+      }
+      kept_count_ = m;
+      kept = kept_planes_, w = kept_planes_[6];
+    } else {
+      // All kept, all weigh 1: the matches as they are.
+      std::copy(matches_[6], matches_[6] + m_, planes_[12]);
+      kept_count_ = m_;
+    }
+    jacobians(kept_count_, kept[0], kept[1], kept[2], kept[3], kept[4], kept[5], w, J[0], J[1],
+              J[2], J[3], J[4], J[5], J[6], J[7], J[8], J[9], J[10], J[11]);
   }
   void solve_inputs(Eigen::Matrix<double, 6, 6>& H, Eigen::Matrix<double, 6, 1>& g) {
     // The last block padded with zero weights, so every block is whole.
@@ -1016,7 +1022,6 @@ RegistrationResult run_schedule(const IcpModel& model, const ScenePyramid& pyram
     for (int it = 0; it < stage.iterations; ++it) {
       projector.move(model, n_model, T, moved);
       equations.clear();
-      std::size_t matched = 0;
       moved.land(level, n_model);
       for (std::size_t h = 0; h < moved.hits; ++h) {
         const int k = moved.hit[h], i = moved.i[k], j = moved.j[k];
@@ -1028,11 +1033,10 @@ RegistrationResult run_schedule(const IcpModel& model, const ScenePyramid& pyram
         const Eigen::Vector3f n = moved.normal(k);
         const Eigen::Vector3f ns = level_normals->at(qi, qj, projector.origin());
         if (ns.isZero() || ns.dot(n) < cos_max_angle) continue;
-        ++matched;
         equations.add(p, n, n.dot(p - q));
       }
       ++result.iterations;
-      if (matched < 12) {
+      if (equations.size() < 12) {
         every_stage_matched = false;
         break;
       }
