@@ -36,10 +36,13 @@ TEST_F(ClosedLoop, CalibrationDriftIsMeasuredAndCorrected) {
     const Json& t = report_target(r.report, id);
     SCOPED_TRACE(id);
     ASSERT_EQ(t.at("outcome").get<std::string>(), "projected") << t.dump();
+    // The rabbit's faint outline moves its Model Points 1.6 mm with the light read 2.6 mm off:
+    // the pose moves and is looked at again before anything is shown.
+    const std::string second_look = std::string(id) == "rabbit" ? "verify:misaligned > " : "";
     EXPECT_EQ(join(outcome_chain(r.events, id)),
               "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
-              "calibrate:succeeded > verify:verified > project:succeeded > next:succeeded > "
-              "finish");
+              "calibrate:succeeded > " +
+                  second_look + "verify:verified > project:succeeded > next:succeeded > finish");
     EXPECT_LE(after_align_mm(t), 3.0) << t.dump();
     EXPECT_LE(t.at("projection_error_area_mm").at("max").get<double>(), 3.5) << t.dump();
     EXPECT_LE(std::abs(t.at("observed_error_mm").get<double>() - after_align_mm(t)), 2.0)
@@ -67,22 +70,23 @@ TEST_F(ClosedLoop, CalibrationDriftIsMeasuredAndCorrected) {
 
 // Verification out of tolerance, then corrected: the machine goes from align straight to verify,
 // which sees the drift (the corners land about 2 cm off) and sends the visit to calibrate; the
-// second verification passes and only then is the content shown.
+// second verification moves the pose with the rabbit's outline, the third passes, and only then
+// is the content shown.
 TEST_F(ClosedLoop, VerificationOutOfToleranceCalibratesAndTriesAgain) {
   mission_ = "verify_first_tour.yaml";
   const DryRunResult r = dry_run("w_calibration_drift.yaml", "run");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(join(outcome_chain(r.events, "rabbit")),
             "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
-            "verify:out_of_tolerance > calibrate:succeeded > verify:verified > "
-            "project:succeeded > next:succeeded > finish");
+            "verify:out_of_tolerance > calibrate:succeeded > verify:misaligned > "
+            "verify:verified > project:succeeded > next:succeeded > finish");
   const std::string first = first_message(r.events, "rabbit", "verify");
   EXPECT_TRUE(
       std::regex_search(first, std::regex("observed error [0-9.]+ mm .* exceeds the tolerance "
                                           "of 3.0 mm")))
       << first;
   const Json& t = report_target(r.report, "rabbit");
-  EXPECT_EQ(t.at("retries").get<int>(), 1);
+  EXPECT_EQ(t.at("retries").get<int>(), 2);
   EXPECT_LE(after_align_mm(t), 3.0) << t.dump();
   // The sign is verified with the rabbit's calibration: no second correction needed.
   EXPECT_EQ(join(outcome_chain(r.events, "open-day-sign")),
