@@ -16,9 +16,14 @@ constexpr const char* kNext = "open-day-sign";
 
 class Faults : public DryRunTest {
  protected:
+  static constexpr const char* kNextChain =
+      "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
+      "calibrate:succeeded > verify:verified > project:succeeded > next:succeeded > finish";
+
   // The checks every fault shares: the run ends as `exit_code` says and the sign after the
-  // faulted rabbit is still visited and projected.
-  DryRunResult run_fault(const std::string& world, int exit_code) {
+  // faulted rabbit is still visited and projected, through `next_chain`.
+  DryRunResult run_fault(const std::string& world, int exit_code,
+                         const std::string& next_chain = kNextChain) {
     DryRunResult r = dry_run(world, "run");
     EXPECT_EQ(r.exit_code, exit_code) << r.err;
     EXPECT_EQ(r.report.at("outcome").get<std::string>(),
@@ -26,10 +31,7 @@ class Faults : public DryRunTest {
     const Json& next = report_target(r.report, kNext);
     EXPECT_EQ(next.at("outcome").get<std::string>(), "projected") << next.dump();
     const auto chain = outcome_chain(r.events, kNext);
-    EXPECT_EQ(join(chain),
-              "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
-              "calibrate:succeeded > verify:verified > project:succeeded > next:succeeded > finish")
-        << "the target after the fault";
+    EXPECT_EQ(join(chain), next_chain) << "the target after the fault";
     int shown_on_next = 0;
     for (const Json& e : read_jsonl(r.dir / "sim_projector_log.jsonl")) {
       shown_on_next += e.at("event").get<std::string>() == "show" && e.at("target").is_string() &&
@@ -174,8 +176,18 @@ TEST_F(Faults, KidnappedRobotSkipsTheTargetAndRecoversByTheNext) {
 // The depth camera disconnects as capture asks for its first frame at the rabbit: capture fails
 // on the driver error and the target is skipped with the driver's message; at the sign the
 // (simulated) camera works again and the tour goes on.
+// On this seed the sign's outline sees a Model Point 1.62 mm off and the error reads 1.73 mm,
+// both over half the 3 mm tolerance: verify makes the move and looks again (1.10 mm), which
+// costs one retry; the referee's error is then 0.51 mm.
 TEST_F(Faults, CameraDisconnectMidCaptureSkips) {
-  const DryRunResult r = run_fault("w_camera_disconnect.yaml", 3);
+  const DryRunResult r =
+      run_fault("w_camera_disconnect.yaml", 3,
+                "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
+                "calibrate:succeeded > verify:misaligned > verify:verified > project:succeeded > "
+                "next:succeeded > finish");
+  EXPECT_LE(
+      report_target(r.report, kNext).at("projection_error_mm").at("after_align").get<double>(),
+      3.0);
   EXPECT_EQ(join(outcome_chain(r.events, kFaulted)),
             "navigate:succeeded > aim:succeeded > capture:failed > skip_target");
   expect_skipped(r, "^failed: depth camera: simulated depth camera: device disconnected$");
