@@ -113,10 +113,12 @@ class Project : public Behaviour {
     };
     auto& stats = tracker_.stats();
     std::optional<DepthFrame> frame;
+    double grab_ms = 0.0;
     if (guard_.armed() || tracking_) {
       try {
         frame = ctx.drivers().depth_camera->grab();
-        if (tracking_) stats.capture_ms.push_back(since_ms(frame_started));
+        grab_ms = since_ms(frame_started);
+        if (tracking_) stats.capture_ms.push_back(grab_ms);
       } catch (const DriverError& e) {
         if (guard_.armed()) {
           // Blind, the robot cannot keep anyone out of the light: dark is the safe state.
@@ -149,7 +151,10 @@ class Project : public Behaviour {
     }
     if (tracking_ && frame) track(ctx, *frame);
     if (content_->is_video()) show_current(ctx, /*force=*/false);
-    if (tracking_ && frame) stats.frame_ms.push_back(since_ms(frame_started));
+    if (tracking_ && frame) {
+      stats.frame_ms.push_back(since_ms(frame_started));
+      stats.work_ms.push_back(stats.frame_ms.back() - grab_ms);
+    }
     return std::nullopt;
   }
 
@@ -360,7 +365,7 @@ class Project : public Behaviour {
     }
     rewarp_problem_.clear();
     warper_->set_target(content_->size(), quad);
-    last_frame_ = warper_->warp(content_->frame_at(elapsed_s(ctx), nullptr));
+    warper_->warp(content_->frame_at(elapsed_s(ctx), nullptr), last_frame_);
     if (!beam_blanked_) ctx.drivers().projector->show(last_frame_);
     shown_T_projector_model_ = T_projector_model;
     if (guard_.armed()) arm_guard(ctx, *ctx.blackboard().find(keys::kAlign));
@@ -387,7 +392,7 @@ class Project : public Behaviour {
     bool changed = false;
     const cv::Mat& frame = content_->frame_at(elapsed_s(ctx), &changed);
     if (!changed && !force) return;
-    last_frame_ = warper_->warp(frame);
+    warper_->warp(frame, last_frame_);
     if (!beam_blanked_) ctx.drivers().projector->show(last_frame_);
     showing_ = true;
   }

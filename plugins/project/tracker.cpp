@@ -57,7 +57,9 @@ std::string TrackStats::summary() const {
     << "), re-warp median " << median(rewarp_ms) << " ms (max " << maximum(rewarp_ms) << ")";
   if (!frame_ms.empty()) {
     s << "; per frame median " << median(frame_ms) << " ms (max " << maximum(frame_ms)
-      << "): capture " << median(capture_ms) << ", beam watch " << median(beam_ms) << " ms";
+      << "): capture " << median(capture_ms) << ", beam watch " << median(beam_ms)
+      << " ms; the work besides capture median " << median(work_ms) << " ms (max "
+      << maximum(work_ms) << ")";
   }
   return s.str();
 }

@@ -47,6 +47,9 @@ struct TrackStats {
   std::vector<double> capture_ms;
   std::vector<double> beam_ms;
   std::vector<double> frame_ms;
+  // The tick's own work, the grab aside: a real camera's grab waits for the next frame and the
+  // simulated one renders it, so only this says whether the loop fits in a frame.
+  std::vector<double> work_ms;
   std::string summary() const;
 };
 

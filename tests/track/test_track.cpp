@@ -214,6 +214,8 @@ class DryRun {
     if (track) {
       EXPECT_NE(projected.message.find("; tracking: "), std::string::npos) << projected.message;
       EXPECT_NE(projected.message.find("per frame median"), std::string::npos) << projected.message;
+      EXPECT_NE(projected.message.find("the work besides capture median"), std::string::npos)
+          << projected.message;
     } else {
       EXPECT_EQ(projected.message.find("tracking"), std::string::npos) << projected.message;
     }

@@ -255,16 +255,24 @@ void ContentWarper::set_target(const cv::Size& content_size, const ProjectedQuad
 }
 
 cv::Mat ContentWarper::warp(const cv::Mat& content) const {
+  cv::Mat out;
+  warp(content, out);
+  return out;
+}
+
+void ContentWarper::warp(const cv::Mat& content, cv::Mat& frame) const {
   if (!has_target()) throw std::logic_error("ContentWarper::warp before set_target");
   if (content.size() != content_size_) {
     throw std::invalid_argument("content frame size differs from the size the warp was set for");
   }
-  cv::Mat out(projector_size_, content.type(), cv::Scalar::all(0));
-  if (reach_.area() == 0) return out;
+  // A frame another cv::Mat still shares (a copy kept for a file, say) is left to its holder.
+  if (frame.u != nullptr && frame.u->refcount > 1) frame.release();
+  frame.create(projector_size_, content.type());
+  frame.setTo(cv::Scalar::all(0));
+  if (reach_.area() == 0) return;
   // Into the reach's view of the frame: remap writes in place when the size and type match.
-  cv::Mat reach = out(reach_);
+  cv::Mat reach = frame(reach_);
   cv::remap(content, reach, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar());
-  return out;
 }
 
 Eigen::Vector2d ContentWarper::content_at(const Eigen::Vector2d& pixel) const {

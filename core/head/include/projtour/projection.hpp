@@ -63,6 +63,10 @@ class ContentWarper {
 
   // Any cv::remap-able image of content_size; outside the content the frame is black (zero).
   cv::Mat warp(const cv::Mat& content) const;
+  // The same into `frame`, whose buffer is reused when it has the projector's size and the
+  // content's type and nothing else holds it: a fresh 1280x800 frame costs its first touch, which
+  // was 9-11 ms on a virtual machine, against 0.1 ms for the warp itself.
+  void warp(const cv::Mat& content, cv::Mat& frame) const;
   // Where projector pixel `pixel` samples the content (bilinear over the maps the warp uses).
   Eigen::Vector2d content_at(const Eigen::Vector2d& pixel) const;
 
