@@ -102,8 +102,7 @@ class ColourCameraDriver : public Driver {
 
 class ProjectorDriver : public Driver {
  public:
-  // Shows a BGR frame of the projector's size. Throws DriverError when the device fails. The
-  // frame is the caller's to overwrite once show returns: a driver that keeps it copies it.
+  // Shows a BGR frame of the projector's size. Throws DriverError when the device fails.
   virtual void show(const cv::Mat& frame_bgr) = 0;
   virtual void blank() = 0;
   virtual bool is_blank() const = 0;
