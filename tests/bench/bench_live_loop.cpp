@@ -187,8 +187,9 @@ void BM_live_frame(benchmark::State& state) {
   state.counters["median_ms"] = frame_ms.empty() ? 0.0 : frame_ms[frame_ms.size() / 2];
   state.counters["p99_ms"] = frame_ms.empty() ? 0.0 : frame_ms[frame_ms.size() * 99 / 100];
   state.counters["max_ms"] = frame_ms.empty() ? 0.0 : frame_ms.back();
+  // Over every frame, the cold one included: the re-warps were counted over them all.
   state.counters["rewarps"] =
-      frame_ms.empty() ? 0.0 : static_cast<double>(rewarps) / frame_ms.size();
+      static_cast<double>(rewarps) / std::max<std::size_t>(1, frame_ms.size() + 1);
   state.counters["nudge_frames"] = frames_back;
 }
 
