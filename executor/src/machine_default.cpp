@@ -59,6 +59,7 @@ states:
           poor_fit: [capture, verify]
           no_frame: [calibrate, verify]
           blocked_beam: [wait, skip_target]       # someone in the structured light
+          occluded: [wait, skip_target]           # something stood in the beam at capture
           failed: skip_target
       verify:               # the colour camera: where the corners land, and the beam is clear
         behaviour: verify

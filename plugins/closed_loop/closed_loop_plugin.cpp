@@ -43,8 +43,8 @@ const projtour_param_desc kCalibrateParams[] = {
     {"max_change_mm", "number", "60",
      "a fit moving the content further than this on the target is refused (poor_fit)"},
     {"max_change_deg", "number", "5", "... or turning the projector more than this"}};
-const char* const kCalibrateOutcomes[] = {"succeeded", "off_screen", "too_few_points",
-                                          "poor_fit",  "no_frame",   "blocked_beam"};
+const char* const kCalibrateOutcomes[] = {"succeeded", "off_screen",   "too_few_points", "poor_fit",
+                                          "no_frame",  "blocked_beam", "occluded"};
 const projtour_key_desc kCalibrateKeys[] = {reads(keys::kAlign), reads(keys::kCapture),
                                             reads_if_present(keys::kCalibration),
                                             writes(keys::kCalibration), writes(keys::kCalibrate)};

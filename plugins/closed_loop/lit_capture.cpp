@@ -40,11 +40,53 @@ void LitCapture::start(Context& ctx, const TargetView& view, int count, FrameSou
   frames_.clear();
   active_ = true;
   ctx.drivers().colour_camera->set_exposure_ms(exposure_ms_);
+  // Something that stood in the beam when the target was captured (a pole, a stand, a person)
+  // is not lit to find out whether it is still there: a fresh depth frame decides first.
+  standing_.reset();
+  captured_t_s_ = view.capture ? view.capture->frame.t_s : -std::numeric_limits<double>::infinity();
+  if (guard_.armed() && view.capture) {
+    const light::BeamIntrusion seen =
+        guard_.check(view.capture->frame, ctx.robot().camera.depth_to_color_m);
+    if (seen.blocked) standing_ = seen;
+  }
+  shown_at_state_s_ = ctx.state_elapsed_s();
+  if (!standing_) light_first(ctx);
+}
+
+void LitCapture::light_first(Context& ctx) {
   // Frames exposed before the first show must not count: drop what is queued.
   while (ctx.drivers().colour_camera->grab()) {
   }
   show_next(ctx);
   first_shown_s_ = shown_at_s_;
+}
+
+std::optional<Outcome> LitCapture::look_before_lighting(Context& ctx, double timeout_s,
+                                                        const std::string& showing) {
+  std::optional<DepthFrame> frame;
+  while (auto f = ctx.drivers().depth_camera->grab()) {
+    if (f->t_s > captured_t_s_) frame = std::move(f);
+  }
+  if (!frame) {
+    if (ctx.state_elapsed_s() - shown_at_state_s_ <= timeout_s) return std::nullopt;
+    finish(ctx);
+    return Outcome{"no_frame", target_prefix(ctx) + "something stood in the beam when the target " +
+                                   "was captured and no depth frame came within " +
+                                   fixed(timeout_s, 1) + " s to see whether it still does"};
+  }
+  const light::BeamIntrusion seen = guard_.check(*frame, ctx.robot().camera.depth_to_color_m);
+  if (seen.blocked) {
+    finish(ctx);
+    return Outcome{"occluded", target_prefix(ctx) + "something stands in the beam (" +
+                                   std::to_string(seen.points) + " readings, " +
+                                   fixed(seen.nearest_m, 2) + " m from the projector; " +
+                                   std::to_string(standing_->points) +
+                                   " when the target was captured): " + showing +
+                                   " not shown, the light would land on it"};
+  }
+  standing_.reset();
+  light_first(ctx);
+  return std::nullopt;
 }
 
 void LitCapture::show_next(Context& ctx) {
@@ -59,6 +101,7 @@ std::optional<Outcome> LitCapture::step(Context& ctx, double timeout_s,
     finish(ctx);
     return Outcome{kOutcomeCancelled, "cancelled while showing " + showing};
   }
+  if (active_ && standing_) return look_before_lighting(ctx, timeout_s, showing);
   if (active_ && ctx.state_elapsed_s() - shown_at_state_s_ > timeout_s) {
     finish(ctx);
     std::ostringstream s;
@@ -118,6 +161,10 @@ void LitCapture::pause(Context& ctx) {
 void LitCapture::resume(Context& ctx) {
   if (!active_) return;
   frames_.clear();
+  if (standing_) {
+    shown_at_state_s_ = ctx.state_elapsed_s();
+    return;
+  }
   while (ctx.drivers().colour_camera->grab()) {
   }
   show_next(ctx);

@@ -3,7 +3,10 @@
 // it had been lit for `hold_s` (the camera's time stamps, not the tick, decide). Calibrate's
 // Gray-code sequence and verify's three frames both go through it. While anything is lit, the
 // beam guard reads every depth frame: something in the beam ends the sequence dark, with
-// `blocked_beam` (a half-taken sequence is no use, and the person may stay a while).
+// `blocked_beam` (a half-taken sequence is no use, and the person may stay a while). Something
+// already in the beam in the depth frame the target was captured in (a pole before a sign) is
+// never lit: a fresh depth frame looks first, and where it still stands the sequence ends
+// `occluded` with nothing shown.
 #include <functional>
 #include <opencv2/core.hpp>
 #include <optional>
@@ -29,7 +32,8 @@ class LitCapture {
              double exposure_ms);
   // One tick of the sequence: the outcome that ends it early -- cancelled, or "no_frame" when
   // no usable colour frame came within timeout_s of state time after a show (`showing` names
-  // what was up), "blocked_beam" when something stands in the beam -- else nullopt; done() once
+  // what was up), "blocked_beam" when something comes into the beam, "occluded" when something
+  // stood in it at capture and still does -- else nullopt; done() once
   // every frame has its colour frame. Throws DriverError from the devices.
   std::optional<Outcome> step(Context& ctx, double timeout_s, const std::string& showing);
   bool done() const { return static_cast<int>(frames_.size()) == count_ && !active_; }
@@ -48,6 +52,11 @@ class LitCapture {
   bool take(Context& ctx);
   void show_next(Context& ctx);
   std::optional<Outcome> guard_beam(Context& ctx, const std::string& showing);
+  void light_first(Context& ctx);
+  // While something seen in the beam at capture may still stand there: a depth frame newer than
+  // the capture, and "occluded" when it is, else the first show.
+  std::optional<Outcome> look_before_lighting(Context& ctx, double timeout_s,
+                                              const std::string& showing);
 
   FrameSource source_;
   int count_ = 0;
@@ -60,6 +69,8 @@ class LitCapture {
   double last_frame_s_ = 0.0;
   bool active_ = false;
   light::BeamGuard guard_;
+  std::optional<light::BeamIntrusion> standing_;  // in the beam in the captured frame, still unlit
+  double captured_t_s_ = 0.0;
 };
 
 // A step that lights the target and records what the colour camera sees (calibrate, verify):

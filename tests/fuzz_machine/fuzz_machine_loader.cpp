@@ -62,7 +62,8 @@ class FixedCatalog : public BehaviourCatalog {
                key("align", "AlignResult", w)});
     behaviour(
         "calibrate",
-        {"succeeded", "off_screen", "too_few_points", "poor_fit", "no_frame", "blocked_beam"},
+        {"succeeded", "off_screen", "too_few_points", "poor_fit", "no_frame", "blocked_beam",
+         "occluded"},
         {param("mask_margin_px", T::integer, "48")},
         {key("align", "AlignResult", r), key("capture", "CapturedFrame", r),
          key("calibration", "ProjectorCalibration", may),

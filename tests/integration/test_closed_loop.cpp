@@ -188,22 +188,36 @@ TEST_F(ClosedLoop, RoughSignTurnedAboutItsNormalIsCaughtByItsOutline) {
 }
 
 // Regression: a thin pole 0.6 m in front of the sign caught 14 % of the content's light and the
-// visit was still reported projected. Now the beam guard sees it in the beam as soon as the
-// structured light goes up: dark at once, a wait, a look again, then skipped with the reason
-// (left for later, but the sign is the tour's last target).
-TEST_F(ClosedLoop, PoleInFrontOfTheSignIsNeverReportedProjected) {
+// visit was still reported projected. Then the beam guard saw it as soon as the structured light
+// went up and the visit ended blocked_beam, the outcome of someone walking into the light. The
+// pole stands in the depth frame the sign was captured in: nothing is lit while a fresh depth
+// frame still shows it there, each look ends occluded, a wait, a look again, then skipped with
+// the reason (the sign is the tour's first target; the rabbit is projected after it).
+TEST_F(ClosedLoop, PoleInFrontOfTheSignIsOccludedAndNeverLit) {
   const DryRunResult r = dry_run("w_pole.yaml", "run");
   EXPECT_EQ(r.exit_code, 3) << r.err;
   EXPECT_EQ(report_target(r.report, "rabbit").at("outcome").get<std::string>(), "projected");
   const Json& t = report_target(r.report, "open-day-sign");
   EXPECT_EQ(t.at("outcome").get<std::string>(), "skipped") << t.dump();
-  EXPECT_TRUE(std::regex_search(t.at("reason").get<std::string>(),
-                                std::regex("^blocked_beam: .*something in the beam")))
+  EXPECT_TRUE(std::regex_search(
+      t.at("reason").get<std::string>(),
+      std::regex("^occluded: .*something stands in the beam \\([0-9]+ readings, 0\\.[0-9]+ m from "
+                 "the projector; [0-9]+ when the target was captured\\): the verification "
+                 "pattern not shown")))
       << t.dump();
   EXPECT_EQ(join(outcome_chain(r.events, "open-day-sign")),
             "navigate:succeeded > aim:succeeded > capture:succeeded > align:succeeded > "
-            "calibrate:blocked_beam > wait:succeeded > verify:blocked_beam > wait:succeeded > "
-            "verify:blocked_beam");
+            "calibrate:occluded > wait:succeeded > verify:occluded > wait:succeeded > "
+            "verify:occluded > skip_target");
+  int sign_shows = 0, shows = 0;
+  for (const Json& e : read_jsonl(r.dir / "sim_projector_log.jsonl")) {
+    if (e.at("event").get<std::string>() != "show") continue;
+    ++shows;
+    sign_shows +=
+        e.at("target").is_string() && e.at("target").get<std::string>() == "open-day-sign";
+  }
+  EXPECT_GT(shows, 0) << "the rabbit's light is logged";
+  EXPECT_EQ(sign_shows, 0) << "the projector was lit on the pole";
 }
 
 // A pole just before the sign's face, within the beam guard's margin: the colour camera sees
