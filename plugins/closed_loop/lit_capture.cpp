@@ -43,7 +43,9 @@ void LitCapture::start(Context& ctx, const TargetView& view, int count, FrameSou
   // Something that stood in the beam when the target was captured (a pole, a stand, a person)
   // is not lit to find out whether it is still there: a fresh depth frame decides first.
   standing_.reset();
+  lit_depth_.reset();
   captured_t_s_ = view.capture ? view.capture->frame.t_s : -std::numeric_limits<double>::infinity();
+  captured_valid_ = view.capture ? view.capture->frame.valid_count() : 0;
   if (guard_.armed() && view.capture) {
     const light::BeamIntrusion seen =
         guard_.check(view.capture->frame, ctx.robot().camera.depth_to_color_m);
@@ -85,8 +87,15 @@ std::optional<Outcome> LitCapture::look_before_lighting(Context& ctx, double tim
                                    " not shown, the light would land on it"};
   }
   standing_.reset();
+  keep_depth(std::move(*frame));
   light_first(ctx);
   return std::nullopt;
+}
+
+void LitCapture::keep_depth(DepthFrame&& frame) {
+  // A frame the camera dropped (few or no readings) says nothing of the scene.
+  if (2 * frame.valid_count() < captured_valid_) return;
+  lit_depth_ = std::move(frame);
 }
 
 void LitCapture::show_next(Context& ctx) {
@@ -120,10 +129,13 @@ std::optional<Outcome> LitCapture::step(Context& ctx, double timeout_s,
 
 std::optional<Outcome> LitCapture::guard_beam(Context& ctx, const std::string& showing) {
   if (!guard_.armed()) return std::nullopt;
-  const auto frame = ctx.drivers().depth_camera->grab();
+  auto frame = ctx.drivers().depth_camera->grab();
   if (!frame) return std::nullopt;
   const light::BeamIntrusion seen = guard_.check(*frame, ctx.robot().camera.depth_to_color_m);
-  if (!seen.blocked) return std::nullopt;
+  if (!seen.blocked) {
+    keep_depth(std::move(*frame));
+    return std::nullopt;
+  }
   finish(ctx);
   std::ostringstream s;
   s.precision(2);
@@ -161,6 +173,7 @@ void LitCapture::pause(Context& ctx) {
 void LitCapture::resume(Context& ctx) {
   if (!active_) return;
   frames_.clear();
+  lit_depth_.reset();
   if (standing_) {
     shown_at_state_s_ = ctx.state_elapsed_s();
     return;

@@ -47,12 +47,17 @@ class LitCapture {
   const std::vector<ColourFrame>& frames() const { return frames_; }
   // Mission time from the first show to the last frame taken.
   double duration_s() const { return last_frame_s_ - first_shown_s_; }
+  // The newest depth frame the beam guard found clear during the sequence (or the fresh look
+  // before it), for judging what stands before the target now: the captured frame is older, and
+  // what stood in it may have gone. Null when the guard read none (unguarded, or none came).
+  const DepthFrame* lit_depth() const { return lit_depth_ ? &*lit_depth_ : nullptr; }
 
  private:
   bool take(Context& ctx);
   void show_next(Context& ctx);
   std::optional<Outcome> guard_beam(Context& ctx, const std::string& showing);
   void light_first(Context& ctx);
+  void keep_depth(DepthFrame&& frame);
   // While something seen in the beam at capture may still stand there: a depth frame newer than
   // the capture, and "occluded" when it is, else the first show.
   std::optional<Outcome> look_before_lighting(Context& ctx, double timeout_s,
@@ -71,6 +76,8 @@ class LitCapture {
   light::BeamGuard guard_;
   std::optional<light::BeamIntrusion> standing_;  // in the beam in the captured frame, still unlit
   double captured_t_s_ = 0.0;
+  std::size_t captured_valid_ = 0;
+  std::optional<DepthFrame> lit_depth_;
 };
 
 // A step that lights the target and records what the colour camera sees (calibrate, verify):

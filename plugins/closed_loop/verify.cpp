@@ -192,8 +192,13 @@ Outcome Verify::measure(Context& ctx) {
     const auto px = colour.project(view_->model_points_camera[i]);
     result_.expected_colour_px[i] = px ? *px : Eigen::Vector2d(-1, -1);
   }
+  // What stands before the target and where the dots land, in depth taken while the patterns
+  // were up (the captured frame is the fit's: something in front of the target then may be
+  // gone, which the beam guard's fresh look allowed).
+  const DepthFrame& depth_now =
+      capture_.lit_depth() ? *capture_.lit_depth() : view_->capture->frame;
   const light::RegisteredDepth depth =
-      light::register_depth(view_->capture->frame, robot.camera.depth_to_color_m, colour);
+      light::register_depth(depth_now, robot.camera.depth_to_color_m, colour);
   const std::vector<float> model_z =
       light::model_depth(*view_->model, view_->T_camera_model, colour);
   const light::LightOnTarget light = light::light_on_target(dark, area, depth, model_z);

@@ -71,6 +71,49 @@ TEST_F(BusyBuilding, APersonStandingInTheBeamLeavesTheTargetForLater) {
   EXPECT_EQ(building(r).at("lit_on_person_ticks").get<int>(), 0);
 }
 
+// Regression: what stood in the beam in the captured depth frame was judged from that frame
+// ever after, so the light check saw a person who had walked off "in front of the target" (36 %
+// of the light) and the visit was skipped occluded. Now the returning robot captures the sign
+// with someone half in its beam, lights nothing while a fresh depth frame still shows them
+// (occluded), waits, looks again with a fresh frame, finds the beam clear, and verify judges the
+// light on depth taken while it was up: projected, and never lit on the person.
+TEST_F(BusyBuilding, SomeoneInTheBeamAtCaptureIsNotLitAndTheVisitGoesOnOnceTheyLeave) {
+  mission_ = "beam_tour.yaml";
+  const DryRunResult r = dry_run("w_person_at_capture.yaml", "run");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string chain = join(outcome_chain(r.events, "open-day-sign"));
+  EXPECT_TRUE(std::regex_search(
+      chain, std::regex("project:blocked_beam > .*align:succeeded > calibrate:occluded > "
+                        "wait:succeeded > verify:(misaligned > verify:)?verified > "
+                        "project:succeeded > next:succeeded > finish$")))
+      << chain;
+  // No show from the calibrate that found the person standing there to the end of its wait.
+  double occluded_s = -1.0, waited_s = -1.0;
+  for (const Json& e : r.events) {
+    if (e.at("event").get<std::string>() != "outcome" || !e.contains("target") ||
+        e.at("target") != "open-day-sign") {
+      continue;
+    }
+    const std::string state = e.at("state").get<std::string>();
+    const std::string outcome = e.at("outcome").get<std::string>();
+    if (state == "tour/visit/calibrate" && outcome == "occluded") occluded_s = e.at("t");
+    if (state == "tour/visit/wait" && occluded_s >= 0.0 && waited_s < 0.0) waited_s = e.at("t");
+  }
+  ASSERT_GE(occluded_s, 0.0);
+  ASSERT_GT(waited_s, occluded_s);
+  int shows_while_standing = 0;
+  for (const Json& e : read_jsonl(r.dir / "sim_projector_log.jsonl")) {
+    const double t = e.at("t").get<double>();
+    shows_while_standing += e.at("event") == "show" && t >= occluded_s - 0.1 && t <= waited_s;
+  }
+  EXPECT_EQ(shows_while_standing, 0);
+  const Json& sign = report_target(r.report, "open-day-sign");
+  EXPECT_EQ(sign.at("outcome").get<std::string>(), "projected") << sign.dump();
+  EXPECT_GE(sign.at("observed_light_on_target").get<double>(), 0.95) << sign.dump();
+  EXPECT_LE(sign.at("projection_error_mm").at("after_align").get<double>(), 3.0) << sign.dump();
+  EXPECT_EQ(building(r).at("lit_on_person_ticks").get<int>(), 0);
+}
+
 // The referee's clearance: never below the robot's radius + 0.10 m from any unmapped object or
 // person; `what` is who came nearest.
 void expect_clearance_kept(const DryRunResult& r, const std::string& what) {

@@ -48,7 +48,10 @@ const std::map<std::string, std::vector<FaultNumber>> kCheckedFaults = {
       {"every_s", Sign::positive},
       {"distance_m", Sign::positive}}},
     {"person_standing",
-     {{"after_s", Sign::non_negative}, {"for_s", Sign::positive}, {"distance_m", Sign::positive}}},
+     {{"after_s", Sign::non_negative},
+      {"for_s", Sign::positive},
+      {"distance_m", Sign::positive},
+      {"offset_m", Sign::any}}},
 };
 
 std::vector<std::string> target_ids(const MissionSpec& mission) {

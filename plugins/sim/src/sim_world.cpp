@@ -600,7 +600,8 @@ struct SimWorld::Impl {
       const Eigen::Vector2d left(-toward.y(), toward.x());
       const double speed = fault_value(f, "speed_mps", 1.0);
       if (f.type == "person_standing") {
-        const Eigen::Vector2d spot = c + fault_value(f, "distance_m", 0.5) * toward;
+        const Eigen::Vector2d spot = c + fault_value(f, "distance_m", 0.5) * toward +
+                                     fault_value(f, "offset_m", 0.0) * left;
         crowd->add_scripted({spot + 2.5 * left, spot, spot + 2.5 * left},
                             {0.0, fault_value(f, "for_s", 10.0), 0.0}, speed, t_s);
       } else {
