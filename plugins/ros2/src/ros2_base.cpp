@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <thread>
 
@@ -63,11 +64,10 @@ Ros2Base::Ros2Base(const Params& params, const RunContext& run)
                         clock_->topic() + " on DDS domain " + std::to_string(spec_.domain_id) +
                         " (start it with the same mission, world and seed)");
     }
-    clock_->write(rosgraph_msgs_msg_dds__Clock_{to_time(0.0)});
   }
   // Nothing moves before the base is heard: a robot file naming the wrong topic or domain is an
   // error here, before the tour starts, not a robot that never arrives.
-  if (!wait_for_odometry(0.0, startup_timeout_s(params))) {
+  if (!wait_for_first_odometry(startup_timeout_s(params))) {
     throw DriverError("base ros2_base: no valid odometry on " + odom_.topic() + " within " +
                       std::to_string(startup_timeout_s(params)) + " s: " +
                       silence_reason(participant_, odom_.topic(),
@@ -99,6 +99,20 @@ void Ros2Base::drain_odometry() {
     last_odometry_wall_ = SteadyClock::now();
     last_refusal_.clear();
   });
+}
+
+bool Ros2Base::wait_for_first_odometry(double timeout_s) {
+  if (!clock_) return wait_for_odometry(0.0, timeout_s);
+  // Discovery is not symmetric: our clock writer can match the bridge's reader before that
+  // reader has matched the writer, and a volatile reader drops what came before its match.
+  // The bridge ignores a clock it has already reached, so t = 0 is repeated until it answers.
+  const auto deadline = SteadyClock::now() + std::chrono::duration<double>(timeout_s);
+  for (;;) {
+    clock_->write(rosgraph_msgs_msg_dds__Clock_{to_time(0.0)});
+    const double left_s = std::chrono::duration<double>(deadline - SteadyClock::now()).count();
+    if (wait_for_odometry(0.0, std::clamp(left_s, 0.0, 0.2))) return true;
+    if (SteadyClock::now() >= deadline) return false;
+  }
 }
 
 bool Ros2Base::wait_for_odometry(double at_least_t_s, double timeout_s) {

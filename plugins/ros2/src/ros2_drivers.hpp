@@ -44,6 +44,7 @@ class Ros2Base : public BaseDriver {
 
  private:
   void drain_odometry();
+  bool wait_for_first_odometry(double timeout_s);
   bool wait_for_odometry(double at_least_t_s, double timeout_s);
   void stop_and_fail(const std::string& why);
   [[noreturn]] void throw_failed() const;
