@@ -143,8 +143,8 @@ Outcome Calibrate::measure(Context& ctx) {
   const PinholeModel& colour = robot.camera.colour.intrinsics;
   const light::DecodeResult decoded = light::decode(
       *sequence_, capture_.frames(), colour_roi(*view_, colour, settings_->roi_margin_px));
-  const light::RegisteredDepth depth =
-      light::register_depth(view_->capture->frame, robot.camera.depth_to_color_m, colour);
+  const light::RegisteredDepth depth = light::register_depth(
+      capture_.lift_depth(view_->capture->frame), robot.camera.depth_to_color_m, colour);
   std::vector<Eigen::Vector3d> points;
   std::vector<Eigen::Vector2d> pixels;
   for (const light::BlockCorrespondence& b : decoded.blocks) {

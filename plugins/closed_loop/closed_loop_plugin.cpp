@@ -39,7 +39,9 @@ const projtour_param_desc kCalibrateParams[] = {
     {"mask_margin_px", "integer", "48",
      "the structured light covers the model's projector pixels grown by this much"},
     {"roi_margin_px", "integer", "24", "colour pixels decoded: the model's, grown by this much"},
-    {"frame_timeout_s", "number", "1.0", "no colour frame this long after a show: no_frame"},
+    {"frame_timeout_s", "number", "1.0",
+     "no colour frame this long after a show, nor a depth frame with readings for the look before "
+     "lighting: no_frame"},
     {"max_change_mm", "number", "60",
      "a fit moving the content further than this on the target is refused (poor_fit)"},
     {"max_change_deg", "number", "5", "... or turning the projector more than this"}};
@@ -61,7 +63,9 @@ const projtour_param_desc kVerifyParams[] = {
     {"tolerance_mm", "number", "-1",
      "largest observed error (mean over the corners) that passes; negative = the target's "
      "tolerance_mm"},
-    {"frame_timeout_s", "number", "1.0", "no colour frame this long after a show: no_frame"},
+    {"frame_timeout_s", "number", "1.0",
+     "no colour frame this long after a show, nor a depth frame with readings for the look before "
+     "lighting: no_frame"},
     {"outline_search_px", "integer", "80",
      "the target's outline is looked for this far (colour pixels) from where the aligned pose "
      "puts it"},

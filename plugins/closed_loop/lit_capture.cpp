@@ -42,15 +42,16 @@ void LitCapture::start(Context& ctx, const TargetView& view, int count, FrameSou
   ctx.drivers().colour_camera->set_exposure_ms(exposure_ms_);
   // Something that stood in the beam when the target was captured (a pole, a stand, a person)
   // is not lit to find out whether it is still there: a fresh depth frame decides first.
-  standing_.reset();
+  at_capture_.reset();
   lit_depth_.reset();
   captured_t_s_ = view.capture ? view.capture->frame.t_s : -std::numeric_limits<double>::infinity();
   captured_valid_ = view.capture ? view.capture->frame.valid_count() : 0;
   if (guard_.armed() && view.capture) {
     const light::BeamIntrusion seen =
         guard_.check(view.capture->frame, ctx.robot().camera.depth_to_color_m);
-    if (seen.blocked) standing_ = seen;
+    if (seen.blocked) at_capture_ = seen;
   }
+  standing_ = at_capture_;
   shown_at_state_s_ = ctx.state_elapsed_s();
   if (!standing_) light_first(ctx);
 }
@@ -65,15 +66,18 @@ void LitCapture::light_first(Context& ctx) {
 
 std::optional<Outcome> LitCapture::look_before_lighting(Context& ctx, double timeout_s,
                                                         const std::string& showing) {
+  // Only a frame that saw the scene decides: a dropped one (no readings) is clear of everything.
   std::optional<DepthFrame> frame;
   while (auto f = ctx.drivers().depth_camera->grab()) {
-    if (f->t_s > captured_t_s_) frame = std::move(f);
+    if (f->t_s > captured_t_s_ && usable(*f) && (!frame || f->t_s > frame->t_s)) {
+      frame = std::move(f);
+    }
   }
   if (!frame) {
     if (ctx.state_elapsed_s() - shown_at_state_s_ <= timeout_s) return std::nullopt;
     finish(ctx);
     return Outcome{"no_frame", target_prefix(ctx) + "something stood in the beam when the target " +
-                                   "was captured and no depth frame came within " +
+                                   "was captured and no depth frame with readings came within " +
                                    fixed(timeout_s, 1) + " s to see whether it still does"};
   }
   const light::BeamIntrusion seen = guard_.check(*frame, ctx.robot().camera.depth_to_color_m);
@@ -92,9 +96,17 @@ std::optional<Outcome> LitCapture::look_before_lighting(Context& ctx, double tim
   return std::nullopt;
 }
 
+bool LitCapture::usable(const DepthFrame& frame) const {
+  // A frame the camera dropped (few or no readings) says nothing of the scene. The bar is the
+  // captured frame's own count, since the same view of the same scene reads about as many: a
+  // fixed share of the image would refuse every frame of a far target against an open hall.
+  const std::size_t valid = frame.valid_count();
+  return valid > 0 && 2 * valid >= captured_valid_;
+}
+
 void LitCapture::keep_depth(DepthFrame&& frame) {
-  // A frame the camera dropped (few or no readings) says nothing of the scene.
-  if (2 * frame.valid_count() < captured_valid_) return;
+  if (!usable(frame)) return;
+  if (lit_depth_ && frame.t_s < lit_depth_->t_s) return;
   lit_depth_ = std::move(frame);
 }
 
@@ -174,6 +186,8 @@ void LitCapture::resume(Context& ctx) {
   if (!active_) return;
   frames_.clear();
   lit_depth_.reset();
+  // What stood in the beam at capture is looked for again: it may have come back meanwhile.
+  standing_ = at_capture_;
   if (standing_) {
     shown_at_state_s_ = ctx.state_elapsed_s();
     return;

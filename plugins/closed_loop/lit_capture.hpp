@@ -32,8 +32,9 @@ class LitCapture {
              double exposure_ms);
   // One tick of the sequence: the outcome that ends it early -- cancelled, or "no_frame" when
   // no usable colour frame came within timeout_s of state time after a show (`showing` names
-  // what was up), "blocked_beam" when something comes into the beam, "occluded" when something
-  // stood in it at capture and still does -- else nullopt; done() once
+  // what was up), or no depth frame with readings within timeout_s to look whether what stood
+  // in the beam at capture still does, "blocked_beam" when something comes into the beam,
+  // "occluded" when something stood in it at capture and still does -- else nullopt; done() once
   // every frame has its colour frame. Throws DriverError from the devices.
   std::optional<Outcome> step(Context& ctx, double timeout_s, const std::string& showing);
   bool done() const { return static_cast<int>(frames_.size()) == count_ && !active_; }
@@ -51,12 +52,18 @@ class LitCapture {
   // before it), for judging what stands before the target now: the captured frame is older, and
   // what stood in it may have gone. Null when the guard read none (unguarded, or none came).
   const DepthFrame* lit_depth() const { return lit_depth_ ? &*lit_depth_ : nullptr; }
+  // The depth to lift what the camera saw onto: `captured` (the frames align registered on,
+  // merged), unless something stood in the beam in it; then the fresh frame that found it gone.
+  const DepthFrame& lift_depth(const DepthFrame& captured) const {
+    return at_capture_ && lit_depth_ ? *lit_depth_ : captured;
+  }
 
  private:
   bool take(Context& ctx);
   void show_next(Context& ctx);
   std::optional<Outcome> guard_beam(Context& ctx, const std::string& showing);
   void light_first(Context& ctx);
+  bool usable(const DepthFrame& frame) const;
   void keep_depth(DepthFrame&& frame);
   // While something seen in the beam at capture may still stand there: a depth frame newer than
   // the capture, and "occluded" when it is, else the first show.
@@ -74,7 +81,8 @@ class LitCapture {
   double last_frame_s_ = 0.0;
   bool active_ = false;
   light::BeamGuard guard_;
-  std::optional<light::BeamIntrusion> standing_;  // in the beam in the captured frame, still unlit
+  std::optional<light::BeamIntrusion> at_capture_;  // in the beam in the captured frame
+  std::optional<light::BeamIntrusion> standing_;    // ... and not yet seen gone: nothing is lit
   double captured_t_s_ = 0.0;
   std::size_t captured_valid_ = 0;
   std::optional<DepthFrame> lit_depth_;

@@ -80,6 +80,16 @@ const Json& report_target(const Json& report, const std::string& id) {
   throw std::runtime_error("report.json has no target " + id);
 }
 
+int shows_on(const fs::path& run_dir, const std::string& target) {
+  int shows = 0;
+  for (const Json& e : read_jsonl(run_dir / "sim_projector_log.jsonl")) {
+    if (e.at("event").get<std::string>() != "show") continue;
+    shows += target.empty() ||
+             (e.at("target").is_string() && e.at("target").get<std::string>() == target);
+  }
+  return shows;
+}
+
 std::vector<std::string> projector_safety_problems(const fs::path& run_dir,
                                                    const std::vector<Json>& events,
                                                    std::size_t first_log_line) {

@@ -41,6 +41,10 @@ std::string join(const std::vector<std::string>& items);
 // The report's target record by id (throws when absent).
 const Json& report_target(const Json& report, const std::string& id);
 
+// The frames the simulated projector showed on `target` (any target when empty), from the run
+// directory's sim_projector_log.jsonl.
+int shows_on(const fs::path& run_dir, const std::string& target);
+
 // Problems with the projector's safety in a run directory, empty when safe: every lit spell in
 // sim_projector_log.jsonl (show .. next blank) starts and ends with the base and head still,
 // lies inside one `calibrate`, `verify` or `project` state of the same target (no other step

@@ -32,12 +32,7 @@ class Faults : public DryRunTest {
     EXPECT_EQ(next.at("outcome").get<std::string>(), "projected") << next.dump();
     const auto chain = outcome_chain(r.events, kNext);
     EXPECT_EQ(join(chain), next_chain) << "the target after the fault";
-    int shown_on_next = 0;
-    for (const Json& e : read_jsonl(r.dir / "sim_projector_log.jsonl")) {
-      shown_on_next += e.at("event").get<std::string>() == "show" && e.at("target").is_string() &&
-                       e.at("target").get<std::string>() == kNext;
-    }
-    EXPECT_GE(shown_on_next, 1) << "the simulated projector never showed the sign";
+    EXPECT_GE(shows_on(r.dir, kNext), 1) << "the simulated projector never showed the sign";
     return r;
   }
 
