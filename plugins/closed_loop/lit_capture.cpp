@@ -44,14 +44,22 @@ void LitCapture::start(Context& ctx, const TargetView& view, int count, FrameSou
   // is not lit to find out whether it is still there: a fresh depth frame decides first.
   at_capture_.reset();
   lit_depth_.reset();
+  at_capture_px_.clear();
   captured_t_s_ = view.capture ? view.capture->frame.t_s : -std::numeric_limits<double>::infinity();
+  look_after_s_ = captured_t_s_;
   captured_valid_ = view.capture ? view.capture->frame.valid_count() : 0;
   if (guard_.armed() && view.capture) {
     const light::BeamIntrusion seen =
-        guard_.check(view.capture->frame, ctx.robot().camera.depth_to_color_m);
-    if (seen.blocked) at_capture_ = seen;
+        guard_.check(view.capture->frame, ctx.robot().camera.depth_to_color_m, &at_capture_px_);
+    if (seen.blocked) {
+      at_capture_ = seen;
+      // Its own readings go when it does: the bar for a frame that saw the scene is the rest.
+      const std::size_t stride = static_cast<std::size_t>(std::max(1, guard_.settings().stride_px));
+      captured_valid_ -= std::min(captured_valid_, at_capture_px_.size() * stride * stride);
+    }
   }
   standing_ = at_capture_;
+  unsure_.reset();
   shown_at_state_s_ = ctx.state_elapsed_s();
   if (!standing_) light_first(ctx);
 }
@@ -62,38 +70,53 @@ void LitCapture::light_first(Context& ctx) {
   }
   show_next(ctx);
   first_shown_s_ = shown_at_s_;
+  last_read_s_ = shown_at_s_;
 }
 
 std::optional<Outcome> LitCapture::look_before_lighting(Context& ctx, double timeout_s,
                                                         const std::string& showing) {
-  // Only a frame that saw the scene decides: a dropped one (no readings) is clear of everything.
+  // The newest frame that read anything: a dropped one (no readings) is clear of everything.
   std::optional<DepthFrame> frame;
   while (auto f = ctx.drivers().depth_camera->grab()) {
-    if (f->t_s > captured_t_s_ && usable(*f) && (!frame || f->t_s > frame->t_s)) {
+    if (f->t_s > look_after_s_ && f->valid_count() > 0 && (!frame || f->t_s > frame->t_s)) {
       frame = std::move(f);
     }
   }
-  if (!frame) {
-    if (ctx.state_elapsed_s() - shown_at_state_s_ <= timeout_s) return std::nullopt;
+  const Eigen::Vector3d& depth_to_color_m = ctx.robot().camera.depth_to_color_m;
+  const auto occluded = [&](const std::string& what) {
     finish(ctx);
-    return Outcome{"no_frame", target_prefix(ctx) + "something stood in the beam when the target " +
-                                   "was captured and no depth frame with readings came within " +
-                                   fixed(timeout_s, 1) + " s to see whether it still does"};
-  }
-  const light::BeamIntrusion seen = guard_.check(*frame, ctx.robot().camera.depth_to_color_m);
-  if (seen.blocked) {
-    finish(ctx);
-    return Outcome{"occluded", target_prefix(ctx) + "something stands in the beam (" +
-                                   std::to_string(seen.points) + " readings, " +
-                                   fixed(seen.nearest_m, 2) + " m from the projector; " +
-                                   std::to_string(standing_->points) +
-                                   " when the target was captured): " + showing +
+    return Outcome{"occluded", target_prefix(ctx) + what + ": " + showing +
                                    " not shown, the light would land on it"};
+  };
+  if (frame) {
+    const light::BeamIntrusion seen = guard_.check(*frame, depth_to_color_m);
+    if (seen.blocked) {
+      return occluded("something stands in the beam (" + std::to_string(seen.points) +
+                      " readings, " + fixed(seen.nearest_m, 2) + " m from the projector; " +
+                      std::to_string(standing_->points) + " when the target was captured)");
+    }
+    // Gone only where it stood reads clear now: too few readings there (a part-dropped frame,
+    // a dark coat) is not a clear beam.
+    const std::size_t clear = guard_.seen_clear(*frame, depth_to_color_m, at_capture_px_);
+    if (10 * clear >= 9 * at_capture_px_.size()) {
+      standing_.reset();
+      lit_depth_ = std::move(*frame);
+      light_first(ctx);
+      return std::nullopt;
+    }
+    unsure_ = clear;
   }
-  standing_.reset();
-  keep_depth(std::move(*frame));
-  light_first(ctx);
-  return std::nullopt;
+  if (ctx.state_elapsed_s() - shown_at_state_s_ <= timeout_s) return std::nullopt;
+  if (unsure_) {
+    return occluded("something stood in the beam when the target was captured (" +
+                    std::to_string(standing_->points) + " readings) and no depth frame within " +
+                    fixed(timeout_s, 1) + " s saw it gone (at best " + std::to_string(*unsure_) +
+                    " of its readings clear)");
+  }
+  finish(ctx);
+  return Outcome{"no_frame", target_prefix(ctx) + "something stood in the beam when the target " +
+                                 "was captured and no depth frame with readings came within " +
+                                 fixed(timeout_s, 1) + " s to see whether it still does"};
 }
 
 bool LitCapture::usable(const DepthFrame& frame) const {
@@ -106,6 +129,7 @@ bool LitCapture::usable(const DepthFrame& frame) const {
 
 void LitCapture::keep_depth(DepthFrame&& frame) {
   if (!usable(frame)) return;
+  last_read_s_ = std::max(last_read_s_, frame.t_s);
   if (lit_depth_ && frame.t_s < lit_depth_->t_s) return;
   lit_depth_ = std::move(frame);
 }
@@ -134,6 +158,13 @@ std::optional<Outcome> LitCapture::step(Context& ctx, double timeout_s,
   }
   if (active_) {
     if (auto blocked = guard_beam(ctx, showing)) return blocked;
+    const double blind_s = guard_.settings().blind_s;
+    if (guard_.armed() && ctx.now_s() - last_read_s_ > blind_s) {
+      finish(ctx);
+      return Outcome{"no_frame", target_prefix(ctx) + "the depth camera read nothing for more " +
+                                     "than " + fixed(blind_s, 1) + " s while showing " + showing +
+                                     ": blanked, the beam was not watched"};
+    }
   }
   if (take(ctx)) finish(ctx);
   return std::nullopt;
@@ -188,14 +219,14 @@ void LitCapture::resume(Context& ctx) {
   lit_depth_.reset();
   // What stood in the beam at capture is looked for again: it may have come back meanwhile.
   standing_ = at_capture_;
+  unsure_.reset();
   if (standing_) {
+    // Only a frame taken after the pause says what stands there now.
+    look_after_s_ = std::max(captured_t_s_, ctx.now_s());
     shown_at_state_s_ = ctx.state_elapsed_s();
     return;
   }
-  while (ctx.drivers().colour_camera->grab()) {
-  }
-  show_next(ctx);
-  first_shown_s_ = shown_at_s_;
+  light_first(ctx);
 }
 
 void LitCapture::finish(Context& ctx) {

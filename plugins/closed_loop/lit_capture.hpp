@@ -48,12 +48,13 @@ class LitCapture {
   const std::vector<ColourFrame>& frames() const { return frames_; }
   // Mission time from the first show to the last frame taken.
   double duration_s() const { return last_frame_s_ - first_shown_s_; }
-  // The newest depth frame the beam guard found clear during the sequence (or the fresh look
-  // before it), for judging what stands before the target now: the captured frame is older, and
-  // what stood in it may have gone. Null when the guard read none (unguarded, or none came).
+  // The newest depth frame the beam guard found clear: one read while lit, or the look's that
+  // saw gone what stood in the beam at capture. For judging what stands before the target now:
+  // the captured frame is older, and what stood in it may have gone. Null when the guard kept
+  // none (unguarded, none came, or each read under half the captured frame's readings).
   const DepthFrame* lit_depth() const { return lit_depth_ ? &*lit_depth_ : nullptr; }
   // The depth to lift what the camera saw onto: `captured` (the frames align registered on,
-  // merged), unless something stood in the beam in it; then the fresh frame that found it gone.
+  // merged), unless something stood in the beam in it; then lit_depth(), a single frame.
   const DepthFrame& lift_depth(const DepthFrame& captured) const {
     return at_capture_ && lit_depth_ ? *lit_depth_ : captured;
   }
@@ -83,7 +84,11 @@ class LitCapture {
   light::BeamGuard guard_;
   std::optional<light::BeamIntrusion> at_capture_;  // in the beam in the captured frame
   std::optional<light::BeamIntrusion> standing_;    // ... and not yet seen gone: nothing is lit
+  std::vector<std::size_t> at_capture_px_;          // its pixels in the captured frame
+  std::optional<std::size_t> unsure_;  // a look read some of them clear, too few to light
   double captured_t_s_ = 0.0;
+  double look_after_s_ = 0.0;  // a look takes only depth frames newer than this
+  double last_read_s_ = 0.0;   // the newest depth frame with readings while lit
   std::size_t captured_valid_ = 0;
   std::optional<DepthFrame> lit_depth_;
 };

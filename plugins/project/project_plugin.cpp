@@ -85,6 +85,7 @@ class Project : public Behaviour {
     if (track_.enabled) start_tracking(ctx);
     if (guard_enabled_) arm_guard(ctx, *ctx.blackboard().find(keys::kAlign));
     t_start_s_ = ctx.state_elapsed_s();
+    last_read_s_ = t_start_s_;
     result_.shown_s = 0.0;
     publish(ctx);
     show_current(ctx, /*force=*/true);
@@ -131,10 +132,14 @@ class Project : public Behaviour {
         tracking_ = false;
       }
     }
-    if (frame && guard_.armed()) {
+    // A dropped frame (no readings) is clear of everything: it neither blanks nor clears.
+    if (frame && guard_.armed() && frame->valid_count() > 0) {
       const auto beam_started = std::chrono::steady_clock::now();
+      last_read_s_ = ctx.state_elapsed_s();
       if (auto blocked = guard_beam(ctx, *frame)) return blocked;
       if (tracking_) stats.beam_ms.push_back(since_ms(beam_started));
+    } else if (guard_.armed()) {
+      if (auto blind = guard_blind(ctx)) return blind;
     }
     if (beam_blanked_) return std::nullopt;
     const double shown_s = elapsed_s(ctx);
@@ -177,6 +182,7 @@ class Project : public Behaviour {
   void resume(Context& ctx) override {
     if (!paused_) return;
     paused_ = false;
+    last_read_s_ = ctx.state_elapsed_s();
     if (!beam_blanked_) ctx.drivers().projector->show(last_frame_);
   }
 
@@ -257,31 +263,15 @@ class Project : public Behaviour {
   // the beam has stayed blocked too long.
   std::optional<Outcome> guard_beam(Context& ctx, const DepthFrame& frame) {
     const light::BeamIntrusion seen = guard_.check(frame, ctx.robot().camera.depth_to_color_m);
-    const double now_s = ctx.state_elapsed_s();
     if (seen.blocked) {
-      beam_clear_since_s_.reset();
-      if (!beam_blanked_) {
-        ctx.drivers().projector->blank();
-        beam_blanked_ = true;
-        blanked_since_s_ = now_s;
-        ++result_.beam_interruptions;
-        std::ostringstream s;
-        s.precision(2);
-        s << std::fixed << "target " << ctx.target->id << ": something in the beam (" << seen.points
-          << " readings, " << seen.nearest_m << " m from the projector, the target "
-          << guard_.limit_m() + guard_.settings().margin_m << " m): blanked";
-        ctx.log().warning(s.str());
-      }
-      if (now_s - blanked_since_s_ > beam_max_blocked_s_) {
-        finish(ctx);
-        std::ostringstream s;
-        s.precision(1);
-        s << std::fixed << "target " << ctx.target->id << ": the beam stayed blocked for more than "
-          << beam_max_blocked_s_ << " s (" << seen.points << " readings in it)";
-        return Outcome{"blocked_beam", s.str()};
-      }
-      return std::nullopt;
+      std::ostringstream s;
+      s.precision(2);
+      s << std::fixed << "something in the beam (" << seen.points << " readings, " << seen.nearest_m
+        << " m from the projector, the target " << guard_.limit_m() + guard_.settings().margin_m
+        << " m)";
+      return blank_for(ctx, s.str(), std::to_string(seen.points) + " readings in it");
     }
+    const double now_s = ctx.state_elapsed_s();
     if (!beam_blanked_) return std::nullopt;
     if (!beam_clear_since_s_) beam_clear_since_s_ = now_s;
     if (now_s - *beam_clear_since_s_ + 1e-9 >= beam_clear_s_) {
@@ -291,6 +281,39 @@ class Project : public Behaviour {
       beam_clear_since_s_.reset();
       if (!paused_) ctx.drivers().projector->show(last_frame_);
       publish(ctx);
+    }
+    return std::nullopt;
+  }
+
+  // Blind, the guard cannot keep anyone out of the light: dark until it sees the beam clear.
+  std::optional<Outcome> guard_blind(Context& ctx) {
+    const double blind_s = ctx.state_elapsed_s() - last_read_s_;
+    if (blind_s <= guard_.settings().blind_s) return std::nullopt;
+    std::ostringstream s;
+    s.precision(1);
+    s << std::fixed << "the depth camera read nothing for " << blind_s << " s";
+    return blank_for(ctx, s.str(), "the depth camera reading nothing");
+  }
+
+  // The beam is not clear (`why`): blank now, and end blocked_beam once it has stayed so for
+  // beam_max_blocked_s (`still` says what held it).
+  std::optional<Outcome> blank_for(Context& ctx, const std::string& why, const std::string& still) {
+    const double now_s = ctx.state_elapsed_s();
+    beam_clear_since_s_.reset();
+    if (!beam_blanked_) {
+      ctx.drivers().projector->blank();
+      beam_blanked_ = true;
+      blanked_since_s_ = now_s;
+      ++result_.beam_interruptions;
+      ctx.log().warning("target " + ctx.target->id + ": " + why + ": blanked");
+    }
+    if (now_s - blanked_since_s_ > beam_max_blocked_s_) {
+      finish(ctx);
+      std::ostringstream s;
+      s.precision(1);
+      s << std::fixed << "target " << ctx.target->id << ": the beam stayed blocked for more than "
+        << beam_max_blocked_s_ << " s (" << still << ")";
+      return Outcome{"blocked_beam", s.str()};
     }
     return std::nullopt;
   }
@@ -444,6 +467,7 @@ class Project : public Behaviour {
   double blanked_since_s_ = 0.0;
   double blanked_before_s_ = 0.0;  // earlier blanks of this visit
   std::optional<double> beam_clear_since_s_;
+  double last_read_s_ = 0.0;  // state time of the newest depth frame with readings
 };
 
 void check_params(const Params& params) {

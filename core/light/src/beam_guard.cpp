@@ -58,31 +58,53 @@ bool BeamGuard::in_region(const Eigen::Vector2d& px, double z_m) const {
   return true;
 }
 
-BeamIntrusion BeamGuard::check(const DepthFrame& frame,
-                               const Eigen::Vector3d& depth_to_color_m) const {
+bool BeamGuard::reads_in_beam(const PinholeModel& k, int u, int v, std::uint16_t mm,
+                              const Eigen::Vector3d& t_projector_colour, double* z_m) const {
+  if (mm == 0) return false;
+  const double z = 1e-3 * mm;
+  const Eigen::Vector3d ray((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
+  const Eigen::Vector3d q = T_projector_camera_.linear() * (ray * z) + t_projector_colour;
+  if (q.z() < settings_.min_range_m || q.z() >= limit_m_) return false;
+  if (!in_region({fx_ * q.x() / q.z() + cx_, fy_ * q.y() / q.z() + cy_}, q.z())) return false;
+  *z_m = q.z();
+  return true;
+}
+
+BeamIntrusion BeamGuard::check(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
+                               std::vector<std::size_t>* in_beam) const {
   BeamIntrusion out;
+  if (in_beam != nullptr) in_beam->clear();
   if (!armed_ || frame.width <= 0 || frame.height <= 0) return out;
   const PinholeModel& k = frame.intrinsics;
   const int stride = std::max(1, settings_.stride_px);
-  // The projector frame's z for a reading at depth z: rotation row 2 and translation, so the
-  // whole row's rays are a cheap affine function of depth.
-  const Eigen::Matrix3d R = T_projector_camera_.linear();
   const Eigen::Vector3d t = T_projector_camera_ * depth_to_color_m;
   for (int v = 0; v < frame.height; v += stride) {
     for (int u = 0; u < frame.width; u += stride) {
-      const std::uint16_t mm = frame.depth_mm[static_cast<std::size_t>(v) * frame.width + u];
-      if (mm == 0) continue;
-      const double z = 1e-3 * mm;
-      const Eigen::Vector3d ray((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
-      const Eigen::Vector3d q = R * (ray * z) + t;
-      if (q.z() < settings_.min_range_m || q.z() >= limit_m_) continue;
-      if (!in_region({fx_ * q.x() / q.z() + cx_, fy_ * q.y() / q.z() + cy_}, q.z())) continue;
+      const std::size_t i = static_cast<std::size_t>(v) * frame.width + u;
+      double z_m = 0.0;
+      if (!reads_in_beam(k, u, v, frame.depth_mm[i], t, &z_m)) continue;
       ++out.points;
-      out.nearest_m = std::min(out.nearest_m, q.z());
+      out.nearest_m = std::min(out.nearest_m, z_m);
+      if (in_beam != nullptr) in_beam->push_back(i);
     }
   }
   out.blocked = out.points >= settings_.min_points;
   return out;
+}
+
+std::size_t BeamGuard::seen_clear(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
+                                  const std::vector<std::size_t>& pixels) const {
+  if (!armed_ || frame.width <= 0 || frame.height <= 0) return 0;
+  const Eigen::Vector3d t = T_projector_camera_ * depth_to_color_m;
+  std::size_t clear = 0;
+  for (const std::size_t i : pixels) {
+    if (i >= frame.depth_mm.size() || frame.depth_mm[i] == 0) continue;
+    const int u = static_cast<int>(i % frame.width);
+    const int v = static_cast<int>(i / frame.width);
+    double z_m = 0.0;
+    clear += !reads_in_beam(frame.intrinsics, u, v, frame.depth_mm[i], t, &z_m);
+  }
+  return clear;
 }
 
 }  // namespace projtour::light

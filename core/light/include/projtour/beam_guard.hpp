@@ -8,7 +8,10 @@
 // them.
 #include <Eigen/Geometry>
 #include <array>
+#include <cstddef>
+#include <cstdint>
 #include <limits>
+#include <vector>
 
 #include "projtour/depth_frame.hpp"
 #include "projtour/model_cloud.hpp"
@@ -30,6 +33,10 @@ struct BeamGuardSettings {
   double min_range_m = 0.25;
   // Every stride_px-th pixel in each direction is looked at.
   int stride_px = 2;
+  // No depth frame with readings for this long while lit and the light is not watched: it goes
+  // dark. A dropped frame (no readings) is clear of everything and proves nothing. Someone at
+  // 1.5 m/s crosses the 15 cm guard band in a tenth of this; a working camera never goes so long.
+  double blind_s = 0.5;
 };
 
 struct BeamIntrusion {
@@ -53,12 +60,23 @@ class BeamGuard {
   // The limit along the projector's axis: readings nearer than this are in the beam.
   double limit_m() const { return limit_m_; }
 
-  // One depth frame (p_camera = p_depth + depth_to_color_m, as capture lifts it).
-  BeamIntrusion check(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m) const;
+  // One depth frame (p_camera = p_depth + depth_to_color_m, as capture lifts it). `in_beam`,
+  // when given, receives the indices of the pixels read in the beam.
+  BeamIntrusion check(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
+                      std::vector<std::size_t>* in_beam = nullptr) const;
+  // Of `pixels` (what check() found in the beam in an earlier frame from the same pose), how
+  // many `frame` sees clear: a reading there, and out of the beam. A pixel without a reading is
+  // not clear: what stood there may still.
+  std::size_t seen_clear(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
+                         const std::vector<std::size_t>& pixels) const;
 
  private:
   // Within the lit region grown by guard_m at depth z_m (projector frame).
   bool in_region(const Eigen::Vector2d& px, double z_m) const;
+  // The reading `mm` at pixel (u, v) is in the beam; its distance along the projector's axis
+  // goes to `z_m`.
+  bool reads_in_beam(const PinholeModel& k, int u, int v, std::uint16_t mm,
+                     const Eigen::Vector3d& t_projector_colour, double* z_m) const;
 
   BeamGuardSettings settings_;
   bool armed_ = false;
