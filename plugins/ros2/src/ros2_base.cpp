@@ -105,7 +105,8 @@ bool Ros2Base::wait_for_first_odometry(double timeout_s) {
   if (!clock_) return wait_for_odometry(0.0, timeout_s);
   // Discovery is not symmetric: our clock writer can match the bridge's reader before that
   // reader has matched the writer, and a volatile reader drops what came before its match.
-  // The bridge ignores a clock it has already reached, so t = 0 is repeated until it answers.
+  // The bridge does not step again for a time it has reached (it re-sends that instant's
+  // odometry), and nothing is commanded before this returns: t = 0 is repeated until it answers.
   const auto deadline = SteadyClock::now() + std::chrono::duration<double>(timeout_s);
   for (;;) {
     clock_->write(rosgraph_msgs_msg_dds__Clock_{to_time(0.0)});
