@@ -129,7 +129,6 @@ bool LitCapture::usable(const DepthFrame& frame) const {
 
 void LitCapture::keep_depth(DepthFrame&& frame) {
   if (!usable(frame)) return;
-  last_read_s_ = std::max(last_read_s_, frame.t_s);
   if (lit_depth_ && frame.t_s < lit_depth_->t_s) return;
   lit_depth_ = std::move(frame);
 }
@@ -158,13 +157,6 @@ std::optional<Outcome> LitCapture::step(Context& ctx, double timeout_s,
   }
   if (active_) {
     if (auto blocked = guard_beam(ctx, showing)) return blocked;
-    const double blind_s = guard_.settings().blind_s;
-    if (guard_.armed() && ctx.now_s() - last_read_s_ > blind_s) {
-      finish(ctx);
-      return Outcome{"no_frame", target_prefix(ctx) + "the depth camera read nothing for more " +
-                                     "than " + fixed(blind_s, 1) + " s while showing " + showing +
-                                     ": blanked, the beam was not watched"};
-    }
   }
   if (take(ctx)) finish(ctx);
   return std::nullopt;
@@ -173,7 +165,17 @@ std::optional<Outcome> LitCapture::step(Context& ctx, double timeout_s,
 std::optional<Outcome> LitCapture::guard_beam(Context& ctx, const std::string& showing) {
   if (!guard_.armed()) return std::nullopt;
   auto frame = ctx.drivers().depth_camera->grab();
-  if (!frame) return std::nullopt;
+  // A dropped frame (no readings) is clear of everything: it neither blocks nor clears, and
+  // blind the light goes dark.
+  if (!frame || frame->valid_count() == 0) {
+    const double blind_s = guard_.settings().blind_s;
+    if (ctx.now_s() - last_read_s_ <= blind_s) return std::nullopt;
+    finish(ctx);
+    return Outcome{"no_frame", target_prefix(ctx) + "the depth camera read nothing for more " +
+                                   "than " + fixed(blind_s, 1) + " s while showing " + showing +
+                                   ": blanked, the beam was not watched"};
+  }
+  last_read_s_ = std::max(last_read_s_, frame->t_s);
   const light::BeamIntrusion seen = guard_.check(*frame, ctx.robot().camera.depth_to_color_m);
   if (!seen.blocked) {
     keep_depth(std::move(*frame));

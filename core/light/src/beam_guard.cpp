@@ -58,12 +58,13 @@ bool BeamGuard::in_region(const Eigen::Vector2d& px, double z_m) const {
   return true;
 }
 
-bool BeamGuard::reads_in_beam(const PinholeModel& k, int u, int v, std::uint16_t mm,
-                              const Eigen::Vector3d& t_projector_colour, double* z_m) const {
+inline bool BeamGuard::reads_in_beam(const PinholeModel& k, int u, int v, std::uint16_t mm,
+                              const Eigen::Matrix3d& R, const Eigen::Vector3d& t_projector_colour,
+                              double* z_m) const {
   if (mm == 0) return false;
   const double z = 1e-3 * mm;
   const Eigen::Vector3d ray((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
-  const Eigen::Vector3d q = T_projector_camera_.linear() * (ray * z) + t_projector_colour;
+  const Eigen::Vector3d q = R * (ray * z) + t_projector_colour;
   if (q.z() < settings_.min_range_m || q.z() >= limit_m_) return false;
   if (!in_region({fx_ * q.x() / q.z() + cx_, fy_ * q.y() / q.z() + cy_}, q.z())) return false;
   *z_m = q.z();
@@ -77,12 +78,14 @@ BeamIntrusion BeamGuard::check(const DepthFrame& frame, const Eigen::Vector3d& d
   if (!armed_ || frame.width <= 0 || frame.height <= 0) return out;
   const PinholeModel& k = frame.intrinsics;
   const int stride = std::max(1, settings_.stride_px);
+  // Hoisted: the guard reads every pixel of every frame while lit (bench_live_loop's beam watch).
+  const Eigen::Matrix3d R = T_projector_camera_.linear();
   const Eigen::Vector3d t = T_projector_camera_ * depth_to_color_m;
   for (int v = 0; v < frame.height; v += stride) {
     for (int u = 0; u < frame.width; u += stride) {
       const std::size_t i = static_cast<std::size_t>(v) * frame.width + u;
       double z_m = 0.0;
-      if (!reads_in_beam(k, u, v, frame.depth_mm[i], t, &z_m)) continue;
+      if (!reads_in_beam(k, u, v, frame.depth_mm[i], R, t, &z_m)) continue;
       ++out.points;
       out.nearest_m = std::min(out.nearest_m, z_m);
       if (in_beam != nullptr) in_beam->push_back(i);
@@ -95,6 +98,7 @@ BeamIntrusion BeamGuard::check(const DepthFrame& frame, const Eigen::Vector3d& d
 std::size_t BeamGuard::seen_clear(const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m,
                                   const std::vector<std::size_t>& pixels) const {
   if (!armed_ || frame.width <= 0 || frame.height <= 0) return 0;
+  const Eigen::Matrix3d R = T_projector_camera_.linear();
   const Eigen::Vector3d t = T_projector_camera_ * depth_to_color_m;
   std::size_t clear = 0;
   for (const std::size_t i : pixels) {
@@ -102,7 +106,7 @@ std::size_t BeamGuard::seen_clear(const DepthFrame& frame, const Eigen::Vector3d
     const int u = static_cast<int>(i % frame.width);
     const int v = static_cast<int>(i / frame.width);
     double z_m = 0.0;
-    clear += !reads_in_beam(frame.intrinsics, u, v, frame.depth_mm[i], t, &z_m);
+    clear += !reads_in_beam(frame.intrinsics, u, v, frame.depth_mm[i], R, t, &z_m);
   }
   return clear;
 }
