@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "assets.hpp"
 #include "projtour_executor/atomic_file.hpp"
 #include "projtour_executor/tour_picture.hpp"
 
@@ -318,20 +319,6 @@ std::string projection_error_line(const Json& targets) {
          std::to_string(n) + (n == 1 ? " target" : " targets");
 }
 
-constexpr const char* kStyle = R"(
-body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;margin:0 auto;max-width:1200px;padding:16px 24px;color:#222;background:#fafafa}
-h1{margin:8px 0 4px}h2{border-bottom:1px solid #ccc;padding-bottom:4px;margin-top:32px}
-table{border-collapse:collapse;margin:8px 0}th,td{padding:4px 10px;text-align:left;border-bottom:1px solid #e2e2e2}
-table.summary th,table.figures th{color:#555;font-weight:600;white-space:nowrap}
-table.overview th{background:#eee}table.overview td:nth-child(n+3):nth-child(-n+7){text-align:right;font-variant-numeric:tabular-nums}
-.badge{display:inline-block;padding:1px 8px;border-radius:9px;color:#fff;font-weight:600;font-size:90%}
-.tour img{max-width:100%;border:1px solid #bbb}
-.pictures{display:flex;flex-wrap:wrap;gap:12px}
-figure{margin:0;max-width:calc(50% - 6px)}figure img{max-width:100%;max-height:480px;width:auto;height:auto;border:1px solid #bbb;display:block}
-figcaption{font-size:90%;color:#555;margin-top:2px}
-footer{margin-top:32px;color:#888;font-size:85%}
-)";
-
 }  // namespace
 
 SummaryInput read_summary_input(const std::filesystem::path& run_dir) {
@@ -353,8 +340,8 @@ std::string render_summary_page(const SummaryInput& input, const std::filesystem
   std::ostringstream h;
   h << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
     << "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
-    << "<title>projtour: " << html_escape(mission) << "</title>\n<style>" << kStyle
-    << "</style>\n</head>\n<body>\n";
+    << "<title>projtour: " << html_escape(mission) << "</title>\n<style>\n"
+    << assets::summary_css() << "</style>\n</head>\n<body>\n";
   h << "<h1>" << html_escape(mission.empty() ? "projtour run" : mission) << "</h1>\n";
 
   h << "<table class=\"summary\">\n";
