@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "projtour_executor/history.hpp"
+#include "projtour_executor/html_escape.hpp"
 #include "projtour_executor/json_io.hpp"
 
 namespace projtour {
@@ -105,24 +106,6 @@ std::string key_expression(const std::string& by) {
   if (by == "day") return "strftime('%Y-%m-%d', v.started_at, 'unixepoch')";
   if (by == "run") return "v.run_id";
   return "v.content";
-}
-
-std::string html_escape(const std::string& s) {
-  std::string out;
-  for (const char c : s) {
-    if (c == '&') {
-      out += "&amp;";
-    } else if (c == '<') {
-      out += "&lt;";
-    } else if (c == '>') {
-      out += "&gt;";
-    } else if (c == '"') {
-      out += "&quot;";
-    } else {
-      out += c;
-    }
-  }
-  return out;
 }
 
 std::string utc_text(double unix_s) {

@@ -15,38 +15,12 @@
 
 #include "assets.hpp"
 #include "projtour_executor/atomic_file.hpp"
+#include "projtour_executor/html_escape.hpp"
 #include "projtour_executor/tour_picture.hpp"
 
 namespace projtour {
 
 namespace {
-
-std::string html_escape(const std::string& s) {
-  std::string out;
-  out.reserve(s.size());
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&#39;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
 
 // Percent-encodes one path segment (a target id may hold any character a YAML string can).
 std::string url_segment(const std::string& s) {
