@@ -222,16 +222,16 @@ function drawMap(state) {
 }
 
 // --- frames: reloaded when their sequence moves, at most twice a second each ----------------
-const frames = {};
+const frameImages = {};
 for (const kind of ["depth", "colour", "projector"]) {
   const img = $("frame-" + kind);
-  frames[kind] = { img, wanted: null, shown: null, loading: false, at: 0 };
-  img.addEventListener("load", () => { frames[kind].loading = false; });
-  img.addEventListener("error", () => { frames[kind].loading = false; });
+  frameImages[kind] = { img, wanted: null, shown: null, loading: false, at: 0 };
+  img.addEventListener("load", () => { frameImages[kind].loading = false; });
+  img.addEventListener("error", () => { frameImages[kind].loading = false; });
 }
 function refreshFrames() {
   const now = Date.now();
-  for (const [kind, f] of Object.entries(frames)) {
+  for (const [kind, f] of Object.entries(frameImages)) {
     if (f.wanted === null || f.wanted === f.shown || f.loading || now - f.at < 500) continue;
     f.shown = f.wanted; f.loading = true; f.at = now;
     f.img.src = `/api/frame/${kind}.png?seq=${encodeURIComponent(f.wanted)}`;
@@ -341,7 +341,7 @@ function onState(state) {
   drawMap(state);
   drawTargets(state);
   for (const [kind, seq] of Object.entries(state.frames || {})) {
-    if (frames[kind] && seq !== null && seq !== undefined) frames[kind].wanted = seq;
+    if (frameImages[kind] && seq !== null && seq !== undefined) frameImages[kind].wanted = seq;
   }
   refreshFrames();
   $("pause").disabled = state.finished || state.paused;
