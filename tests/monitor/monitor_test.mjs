@@ -89,8 +89,12 @@ async function openPage(base, token) {
   });
   const page = await browser.newPage();
   await page.setViewport({ width: 1400, height: 1000 });
-  const seen = { page, errors: [], requested: [] };
+  const seen = { page, errors: [], consoleErrors: [], requested: [] };
   page.on("pageerror", (e) => seen.errors.push(e.message));
+  // What the page or the browser logs as an error: a failed request, a script's console.error.
+  page.on("console", (m) => {
+    if (m.type() === "error") seen.consoleErrors.push({ text: m.text(), url: m.location().url || "" });
+  });
   page.on("request", (r) => seen.requested.push(r.url()));
   await page.goto(`${base}#token=${token}`);
   seen.state = () => page.evaluate(() => window.projtourMonitor.lastState);
@@ -101,6 +105,11 @@ async function openPage(base, token) {
 
 function checkRequests(seen, base, token) {
   check(seen.errors.length === 0, `no script errors on the page ${JSON.stringify(seen.errors)}`);
+  // The one error the browser must log: the 401 of the resume the controls scenario sends with a
+  // wrong token on purpose ("Failed to load resource: ... 401").
+  const unexpected = seen.consoleErrors.filter((e) =>
+    !(e.text.includes("401") && new URL(e.url || "about:blank").pathname === "/api/control/resume"));
+  check(unexpected.length === 0, `no errors on the console ${JSON.stringify(unexpected)}`);
   const origin = new URL(base).origin;
   check(seen.requested.every((u) => u.startsWith(origin)), "the page asks nothing of any other host");
   // Puppeteer reports a navigation with its fragment, which the browser keeps to itself.
