@@ -25,7 +25,8 @@ TEST(HtmlEscape, EscapesTheFiveCharactersThatCanEndTextOrAnAttribute) {
 
 TEST(HtmlEscape, Regression_TheHistoryPageEscapesASingleQuote) {
   test::TempDir dir;
-  HistoryDb db(dir.path() / "h.sqlite", HistoryAccess::read_write);
+  const fs::path file = dir.path() / "h.sqlite";
+  HistoryDb db(file, HistoryAccess::read_write);
   HistoryRun run;
   run.id = "r1";
   run.mission = "m";
@@ -46,8 +47,10 @@ TEST(HtmlEscape, Regression_TheHistoryPageEscapesASingleQuote) {
   v.observed_error_mm = 1.0;
   v.true_error_mm = 0.5;
   v.outcome = "projected";
-  v.proof_path = "proofs/ab/abcd.jpg";
-  v.proof_sha256 = "abcd";
+  // A proof, so that the page has its figure (alt and caption); its bytes need not be an image.
+  const StoredProof proof = store_proof(file, {0xff, 0xd8, 0xff, 0xe0, 1, 2, 3});
+  v.proof_path = proof.relative_path;
+  v.proof_sha256 = proof.sha256;
   db.record_visit(v);
 
   const fs::path page = dir.path() / "history.html";
