@@ -17,6 +17,19 @@
 
 namespace projtour {
 namespace {
+// Outcomes: the descriptor's outcome lists and every return site name them through these, so a
+// misspelt outcome does not compile.
+namespace outcome {
+inline constexpr const char* kSucceeded = "succeeded";
+inline constexpr const char* kOutOfReach = "out_of_reach";
+inline constexpr const char* kReapproach = "reapproach";
+}  // namespace outcome
+// Parameters: the descriptor's tables and every read of a value name them through these.
+namespace param {
+inline constexpr const char* kSettleS = "settle_s";
+inline constexpr const char* kAimAt = "aim_at";
+inline constexpr const char* kEdgeMarginPx = "edge_margin_px";
+}  // namespace param
 
 std::string fmt_angles(const JointAngles& q) {
   std::ostringstream s;
@@ -29,9 +42,9 @@ std::string fmt_angles(const JointAngles& q) {
 class Aim : public Behaviour {
  public:
   Aim(const Params& params, const RunContext& run)
-      : settle_s_(params.number("settle_s")),
-        edge_margin_px_(params.number("edge_margin_px")),
-        aim_at_origin_(params.string("aim_at") == "origin") {
+      : settle_s_(params.number(param::kSettleS)),
+        edge_margin_px_(params.number(param::kEdgeMarginPx)),
+        aim_at_origin_(params.string(param::kAimAt) == "origin") {
     if (run.mission == nullptr) throw std::invalid_argument("aim needs the mission's robot");
   }
 
@@ -74,7 +87,7 @@ class Aim : public Behaviour {
       s << std::fixed << "target " << target.id << ": aim point (" << p_base.x() << ", "
         << p_base.y() << ", " << p_base.z() << ") m in the base frame is out of reach: " << why;
       // Aimed at where the target really is, a farther stand-off may bring it within reach.
-      early_ = Outcome{T_base_aligned ? "reapproach" : "out_of_reach", s.str()};
+      early_ = Outcome{T_base_aligned ? outcome::kReapproach : outcome::kOutOfReach, s.str()};
       return;
     }
     if (T_base_aligned) {
@@ -84,8 +97,9 @@ class Aim : public Behaviour {
           content_fit_problem(kinematics, ctx.robot().projector.intrinsics, target.model_points,
                               p_model, T_base_model, edge_margin_px_);
       if (!problem.empty()) {
-        early_ = Outcome{"reapproach", "target " + target.id + ": aimed at its aligned pose, " +
-                                           problem + "; the base re-approaches it"};
+        early_ =
+            Outcome{outcome::kReapproach, "target " + target.id + ": aimed at its aligned pose, " +
+                                              problem + "; the base re-approaches it"};
         return;
       }
     }
@@ -108,7 +122,7 @@ class Aim : public Behaviour {
     }
     if (!reached_at_s_) reached_at_s_ = ctx.state_elapsed_s();
     if (ctx.state_elapsed_s() - *reached_at_s_ < settle_s_) return std::nullopt;
-    return Outcome{"succeeded", "aimed at " + ctx.target->id + ": " + fmt_angles(goal_)};
+    return Outcome{outcome::kSucceeded, "aimed at " + ctx.target->id + ": " + fmt_angles(goal_)};
   }
 
   // Leaves the projector blank and the head still: a head stopped on its way (a timeout, a
@@ -146,26 +160,26 @@ class Aim : public Behaviour {
 };
 
 void check_params(const Params& params) {
-  const std::string& aim_at = params.string("aim_at");
+  const std::string& aim_at = params.string(param::kAimAt);
   if (aim_at != "model_points" && aim_at != "origin") {
     throw std::invalid_argument("aim_at must be \"model_points\" or \"origin\", not \"" + aim_at +
                                 "\"");
   }
-  if (params.number("settle_s") < 0) throw std::invalid_argument("settle_s must be >= 0");
-  if (params.number("edge_margin_px") < 0) {
+  if (params.number(param::kSettleS) < 0) throw std::invalid_argument("settle_s must be >= 0");
+  if (params.number(param::kEdgeMarginPx) < 0) {
     throw std::invalid_argument("edge_margin_px must be >= 0");
   }
 }
 
 const projtour_param_desc kParams[] = {
-    {"settle_s", "number", "0.3", "seconds to wait after the head reports its angles reached"},
-    {"aim_at", "string", "model_points",
+    {param::kSettleS, "number", "0.3", "seconds to wait after the head reports its angles reached"},
+    {param::kAimAt, "string", "model_points",
      "model_points (centroid of the four Model Points) or origin (the model frame's origin)"},
-    {"edge_margin_px", "number", "10",
+    {param::kEdgeMarginPx, "number", "10",
      "aiming at the aligned pose: a Model Point closer than this to the projector image's edge "
      "means reapproach (more than calibrate's and verify's margin, so what fits here fits "
      "there)"}};
-const char* const kOutcomes[] = {"succeeded", "out_of_reach", "reapproach"};
+const char* const kOutcomes[] = {outcome::kSucceeded, outcome::kOutOfReach, outcome::kReapproach};
 const projtour_key_desc kKeys[] = {reads(keys::kLocalization), reads_if_present(keys::kAlign),
                                    reads_if_present(keys::kCapture),
                                    reads_if_present(keys::kCalibration)};

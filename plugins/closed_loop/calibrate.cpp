@@ -28,11 +28,11 @@ struct CalibrateSettings {
 
 static CalibrateSettings read_settings(const Params& p) {
   CalibrateSettings s;
-  s.mask_margin_px = static_cast<int>(p.integer("mask_margin_px"));
-  s.roi_margin_px = static_cast<int>(p.integer("roi_margin_px"));
-  s.frame_timeout_s = p.number("frame_timeout_s");
-  s.max_change_mm = p.number("max_change_mm");
-  s.max_change_deg = p.number("max_change_deg");
+  s.mask_margin_px = static_cast<int>(p.integer(param::kMaskMarginPx));
+  s.roi_margin_px = static_cast<int>(p.integer(param::kRoiMarginPx));
+  s.frame_timeout_s = p.number(param::kFrameTimeoutS);
+  s.max_change_mm = p.number(param::kMaxChangeMm);
+  s.max_change_deg = p.number(param::kMaxChangeDeg);
   if (s.mask_margin_px < 0 || s.mask_margin_px > 400) {
     throw std::invalid_argument("mask_margin_px: must lie in [0, 400]");
   }
@@ -106,11 +106,12 @@ void Calibrate::start(Context& ctx) {
   const int lit_px = cv::countNonZero(mask_);
   const int block_area_px = robot.structured_light.block_px * robot.structured_light.block_px;
   if (lit_px < robot.structured_light.min_correspondences * block_area_px) {
-    early_ = Outcome{"off_screen", target_prefix(ctx) + "the target covers " +
-                                       std::to_string(lit_px / block_area_px) +
-                                       " projector blocks, fewer than the " +
-                                       std::to_string(robot.structured_light.min_correspondences) +
-                                       " the structured light needs"};
+    early_ =
+        Outcome{outcome::kOffScreen,
+                target_prefix(ctx) + "the target covers " + std::to_string(lit_px / block_area_px) +
+                    " projector blocks, fewer than the " +
+                    std::to_string(robot.structured_light.min_correspondences) +
+                    " the structured light needs"};
     return;
   }
   capture_.start(
@@ -161,7 +162,7 @@ Outcome Calibrate::measure(Context& ctx) {
   if (result_.decoded_blocks < sl.min_correspondences) {
     result_.compute_ms = elapsed_ms();
     std::string detail = decoded.problem.empty() ? "" : " (" + decoded.problem + ")";
-    return Outcome{"too_few_points",
+    return Outcome{outcome::kTooFewPoints,
                    who + "the structured light decoded " + std::to_string(result_.decoded_blocks) +
                        " projector blocks on the target with depth, fewer than the " +
                        std::to_string(sl.min_correspondences) + " needed" + detail +
@@ -175,8 +176,8 @@ Outcome Calibrate::measure(Context& ctx) {
   result_.inliers = fit.inliers;
   result_.rms_px = fit.rms_px;
   if (!fit.T_projector_camera) {
-    return Outcome{"poor_fit", who + "no camera-projector fit: " + fit.problem +
-                                   "; keeping the calibration believed so far"};
+    return Outcome{outcome::kPoorFit, who + "no camera-projector fit: " + fit.problem +
+                                          "; keeping the calibration believed so far"};
   }
   // How far the measurement moves the content on this target, at the Model Points.
   double change_m = 0.0;
@@ -192,17 +193,17 @@ Outcome Calibrate::measure(Context& ctx) {
           << " px, moves the content " << fixed(result_.change_mm, 1) << " mm / "
           << fixed(result_.change_deg, 2) << " deg";
   if (fit.rms_px > sl.max_residual_px) {
-    return Outcome{"poor_fit", who + "camera-projector fit too loose (" + figures.str() +
-                                   "; RMS limit " + fixed(sl.max_residual_px, 2) +
-                                   " px); keeping the calibration believed so far"};
+    return Outcome{outcome::kPoorFit, who + "camera-projector fit too loose (" + figures.str() +
+                                          "; RMS limit " + fixed(sl.max_residual_px, 2) +
+                                          " px); keeping the calibration believed so far"};
   }
   if (result_.change_mm > settings_->max_change_mm ||
       result_.change_deg > settings_->max_change_deg) {
-    return Outcome{"poor_fit", who + "the fit moves the calibration implausibly far (" +
-                                   figures.str() + "; limits " +
-                                   fixed(settings_->max_change_mm, 0) + " mm / " +
-                                   fixed(settings_->max_change_deg, 1) +
-                                   " deg); keeping the calibration believed so far"};
+    return Outcome{outcome::kPoorFit, who + "the fit moves the calibration implausibly far (" +
+                                          figures.str() + "; limits " +
+                                          fixed(settings_->max_change_mm, 0) + " mm / " +
+                                          fixed(settings_->max_change_deg, 1) +
+                                          " deg); keeping the calibration believed so far"};
   }
   ProjectorCalibration calibration;
   calibration.projector_mount =
@@ -223,7 +224,7 @@ Outcome Calibrate::measure(Context& ctx) {
       ctx.log().warning(who + "calibration adopted but not written: " + e.what());
     }
   }
-  return Outcome{"succeeded", who + "calibrated by structured light: " + figures.str()};
+  return Outcome{outcome::kSucceeded, who + "calibrated by structured light: " + figures.str()};
 }
 
 }  // namespace projtour::closed_loop

@@ -12,7 +12,7 @@ namespace {
 // then succeeded. The default machine waits here for a person to step out of an occluded beam.
 class Wait : public Behaviour {
  public:
-  Wait(const Params& params, const RunContext&) : duration_s_(params.number("duration_s")) {}
+  Wait(const Params& params, const RunContext&) : duration_s_(params.number(param::kDurationS)) {}
   void start(Context& ctx) override {
     started_s_ = ctx.state_elapsed_s();
     if (ctx.drivers().projector) ctx.drivers().projector->blank();
@@ -23,7 +23,7 @@ class Wait : public Behaviour {
     std::ostringstream s;
     s.precision(1);
     s << std::fixed << "waited " << duration_s_ << " s";
-    return Outcome{"succeeded", s.str()};
+    return Outcome{outcome::kSucceeded, s.str()};
   }
 
  private:
@@ -32,66 +32,70 @@ class Wait : public Behaviour {
 };
 
 void check_wait_params(const Params& params) {
-  if (!(params.number("duration_s") >= 0)) throw std::invalid_argument("duration_s: must be >= 0");
+  if (!(params.number(param::kDurationS) >= 0))
+    throw std::invalid_argument("duration_s: must be >= 0");
 }
 
 const projtour_param_desc kCalibrateParams[] = {
-    {"mask_margin_px", "integer", "48",
+    {param::kMaskMarginPx, "integer", "48",
      "the structured light covers the model's projector pixels grown by this much"},
-    {"roi_margin_px", "integer", "24", "colour pixels decoded: the model's, grown by this much"},
-    {"frame_timeout_s", "number", "1.0",
+    {param::kRoiMarginPx, "integer", "24",
+     "colour pixels decoded: the model's, grown by this much"},
+    {param::kFrameTimeoutS, "number", "1.0",
      "no colour frame this long after a show, nor a depth frame with readings for the look before "
      "lighting: no_frame"},
-    {"max_change_mm", "number", "60",
+    {param::kMaxChangeMm, "number", "60",
      "a fit moving the content further than this on the target is refused (poor_fit)"},
-    {"max_change_deg", "number", "5", "... or turning the projector more than this"}};
-const char* const kCalibrateOutcomes[] = {"succeeded", "off_screen",   "too_few_points", "poor_fit",
-                                          "no_frame",  "blocked_beam", "occluded"};
+    {param::kMaxChangeDeg, "number", "5", "... or turning the projector more than this"}};
+const char* const kCalibrateOutcomes[] = {
+    outcome::kSucceeded, outcome::kOffScreen,   outcome::kTooFewPoints, outcome::kPoorFit,
+    outcome::kNoFrame,   outcome::kBlockedBeam, outcome::kOccluded};
 const projtour_key_desc kCalibrateKeys[] = {reads(keys::kAlign), reads(keys::kCapture),
                                             reads_if_present(keys::kCalibration),
                                             writes(keys::kCalibration), writes(keys::kCalibrate)};
 
 const projtour_param_desc kVerifyParams[] = {
-    {"edge_margin_px", "number", "8",
+    {param::kEdgeMarginPx, "number", "8",
      "a Model Point this close to the projector image's edge means off_screen (re-aim)"},
-    {"dot_radius_px", "integer", "10", "radius of the dot shown on each Model Point's pixel"},
-    {"search_px", "number", "40",
+    {param::kDotRadiusPx, "integer", "10", "radius of the dot shown on each Model Point's pixel"},
+    {param::kSearchPx, "number", "40",
      "each dot is looked for this far around its expected pixel (at most 0.45 of the distance "
      "between two expected dots)"},
-    {"min_on_target", "number", "0.95",
+    {param::kMinOnTarget, "number", "0.95",
      "share of the content area's light that must land on the target"},
-    {"tolerance_mm", "number", "-1",
+    {param::kToleranceMm, "number", "-1",
      "largest observed error (mean over the corners) that passes; negative = the target's "
      "tolerance_mm"},
-    {"frame_timeout_s", "number", "1.0",
+    {param::kFrameTimeoutS, "number", "1.0",
      "no colour frame this long after a show, nor a depth frame with readings for the look before "
      "lighting: no_frame"},
-    {"outline_search_px", "integer", "80",
+    {param::kOutlineSearchPx, "integer", "80",
      "the target's outline is looked for this far (colour pixels) from where the aligned pose "
      "puts it"},
-    {"min_outline_matched", "number", "0.35",
+    {param::kMinOutlineMatched, "number", "0.35",
      "share of the model's outline that must meet an image edge for the outline to count"},
-    {"clear_outline_matched", "number", "0.7",
+    {param::kClearOutlineMatched, "number", "0.7",
      "an outline matched this well moves the Model Points by whatever slide it sees; a fainter "
      "one only by a gross slide"},
-    {"spread_sigmas", "number", "4",
+    {param::kSpreadSigmas, "number", "4",
      "uncertain when this many standard deviations of the fit's disagreement with itself at the "
      "Model Points (leaving out each 4 cm block of the model in turn) exceed the tolerance; the "
      "block jackknife under-reads a rough scan, whose errors lean together over more than a "
      "block"},
-    {"gross_slide_tolerances", "number", "2",
+    {param::kGrossSlideTolerances, "number", "2",
      "a slide of this many tolerances is gross: any counted outline moves the Model Points, and "
      "the pose slides (misaligned) before anything else is judged"}};
-const char* const kVerifyOutcomes[] = {"verified",   "out_of_tolerance", "misaligned",
-                                       "uncertain",  "occluded",         "not_seen",
-                                       "off_screen", "no_frame",         "blocked_beam"};
+const char* const kVerifyOutcomes[] = {
+    outcome::kVerified,  outcome::kOutOfTolerance, outcome::kMisaligned,
+    outcome::kUncertain, outcome::kOccluded,       outcome::kNotSeen,
+    outcome::kOffScreen, outcome::kNoFrame,        outcome::kBlockedBeam};
 const projtour_key_desc kVerifyKeys[] = {reads(keys::kAlign), reads(keys::kCapture),
                                          reads_if_present(keys::kCalibration),
                                          writes(keys::kVerify), writes(keys::kAlign)};
 
 const projtour_param_desc kWaitParams[] = {
-    {"duration_s", "number", "5", "seconds to wait, projector blank"}};
-const char* const kWaitOutcomes[] = {"succeeded"};
+    {param::kDurationS, "number", "5", "seconds to wait, projector blank"}};
+const char* const kWaitOutcomes[] = {outcome::kSucceeded};
 
 const projtour_kind_desc kKinds[] = {
     with_keys(behaviour_kind<Calibrate>(

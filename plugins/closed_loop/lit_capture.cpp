@@ -85,8 +85,8 @@ std::optional<Outcome> LitCapture::look_before_lighting(Context& ctx, double tim
   const Eigen::Vector3d& depth_to_color_m = ctx.robot().camera.depth_to_color_m;
   const auto occluded = [&](const std::string& what) {
     finish(ctx);
-    return Outcome{"occluded", target_prefix(ctx) + what + ": " + showing +
-                                   " not shown, the light would land on it"};
+    return Outcome{outcome::kOccluded, target_prefix(ctx) + what + ": " + showing +
+                                           " not shown, the light would land on it"};
   };
   if (frame) {
     const light::BeamIntrusion seen = guard_.check(*frame, depth_to_color_m);
@@ -114,9 +114,10 @@ std::optional<Outcome> LitCapture::look_before_lighting(Context& ctx, double tim
                     " of its readings clear)");
   }
   finish(ctx);
-  return Outcome{"no_frame", target_prefix(ctx) + "something stood in the beam when the target " +
-                                 "was captured and no depth frame with readings came within " +
-                                 fixed(timeout_s, 1) + " s to see whether it still does"};
+  return Outcome{outcome::kNoFrame,
+                 target_prefix(ctx) + "something stood in the beam when the target " +
+                     "was captured and no depth frame with readings came within " +
+                     fixed(timeout_s, 1) + " s to see whether it still does"};
 }
 
 bool LitCapture::usable(const DepthFrame& frame) const {
@@ -153,7 +154,7 @@ std::optional<Outcome> LitCapture::step(Context& ctx, double timeout_s,
     s << std::fixed << (ctx.target ? "target " + ctx.target->id + ": " : std::string())
       << "no colour frame within " << timeout_s << " s of showing " << showing << " (frame "
       << frames_.size() + 1 << " of " << count_ << ")";
-    return Outcome{"no_frame", s.str()};
+    return Outcome{outcome::kNoFrame, s.str()};
   }
   if (active_) {
     if (auto blocked = guard_beam(ctx, showing)) return blocked;
@@ -171,9 +172,10 @@ std::optional<Outcome> LitCapture::guard_beam(Context& ctx, const std::string& s
     const double blind_s = guard_.settings().blind_s;
     if (ctx.now_s() - last_read_s_ <= blind_s) return std::nullopt;
     finish(ctx);
-    return Outcome{"no_frame", target_prefix(ctx) + "the depth camera read nothing for more " +
-                                   "than " + fixed(blind_s, 1) + " s while showing " + showing +
-                                   ": blanked, the beam was not watched"};
+    return Outcome{outcome::kNoFrame, target_prefix(ctx) +
+                                          "the depth camera read nothing for more " + "than " +
+                                          fixed(blind_s, 1) + " s while showing " + showing +
+                                          ": blanked, the beam was not watched"};
   }
   last_read_s_ = std::max(last_read_s_, frame->t_s);
   const light::BeamIntrusion seen = guard_.check(*frame, ctx.robot().camera.depth_to_color_m);
@@ -187,7 +189,7 @@ std::optional<Outcome> LitCapture::guard_beam(Context& ctx, const std::string& s
   s << std::fixed << target_prefix(ctx) << "something in the beam (" << seen.points << " readings, "
     << seen.nearest_m << " m from the projector) while showing " << showing << " (frame "
     << frames_.size() + 1 << " of " << count_ << "): blanked";
-  return Outcome{"blocked_beam", s.str()};
+  return Outcome{outcome::kBlockedBeam, s.str()};
 }
 
 bool LitCapture::take(Context& ctx) {

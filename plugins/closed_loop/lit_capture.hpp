@@ -17,6 +17,7 @@
 #include "projtour/behaviour.hpp"
 #include "projtour/colour_frame.hpp"
 #include "projtour/context.hpp"
+#include "step_names.hpp"
 #include "target_view.hpp"
 
 namespace projtour::closed_loop {

@@ -58,7 +58,7 @@ TargetViewOrOutcome look_at_target(Context& ctx, double edge_margin_px) {
   }
   const std::string problem = edge_problem(v.quad, projector, edge_margin_px);
   if (!problem.empty()) {
-    out.outcome = Outcome{"off_screen", who + problem};
+    out.outcome = Outcome{outcome::kOffScreen, who + problem};
     return out;
   }
   out.view = std::move(v);

@@ -14,6 +14,7 @@
 #include "projtour/context.hpp"
 #include "projtour/kinematics.hpp"
 #include "projtour/projection.hpp"
+#include "step_names.hpp"
 
 namespace projtour::closed_loop {
 

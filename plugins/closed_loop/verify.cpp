@@ -7,6 +7,7 @@
 // a flat face slid along itself). A miss that is the pose's corrects the pose (misaligned: the
 // pose slides, verify looks again).
 // The lit area shows whether the light lands on the target or on something in front of it.
+// measure() only measures; judge_verify (verify_judgement.hpp) chooses the outcome from that.
 #include "verify.hpp"
 
 #include <Eigen/Geometry>
@@ -41,17 +42,17 @@ struct VerifySettings {
 
 static VerifySettings read_verify_settings(const Params& p) {
   VerifySettings s;
-  s.edge_margin_px = p.number("edge_margin_px");
-  s.dot_radius_px = static_cast<int>(p.integer("dot_radius_px"));
-  s.search_px = p.number("search_px");
-  s.min_on_target = p.number("min_on_target");
-  s.tolerance_mm = p.number("tolerance_mm");
-  s.frame_timeout_s = p.number("frame_timeout_s");
-  s.outline_search_px = static_cast<int>(p.integer("outline_search_px"));
-  s.min_outline_matched = p.number("min_outline_matched");
-  s.gross_slide_tolerances = p.number("gross_slide_tolerances");
-  s.clear_outline_matched = p.number("clear_outline_matched");
-  s.spread_sigmas = p.number("spread_sigmas");
+  s.edge_margin_px = p.number(param::kEdgeMarginPx);
+  s.dot_radius_px = static_cast<int>(p.integer(param::kDotRadiusPx));
+  s.search_px = p.number(param::kSearchPx);
+  s.min_on_target = p.number(param::kMinOnTarget);
+  s.tolerance_mm = p.number(param::kToleranceMm);
+  s.frame_timeout_s = p.number(param::kFrameTimeoutS);
+  s.outline_search_px = static_cast<int>(p.integer(param::kOutlineSearchPx));
+  s.min_outline_matched = p.number(param::kMinOutlineMatched);
+  s.gross_slide_tolerances = p.number(param::kGrossSlideTolerances);
+  s.clear_outline_matched = p.number(param::kClearOutlineMatched);
+  s.spread_sigmas = p.number(param::kSpreadSigmas);
   if (s.edge_margin_px < 0) throw std::invalid_argument("edge_margin_px: must be >= 0");
   if (s.dot_radius_px < 1 || s.dot_radius_px > 100) {
     throw std::invalid_argument("dot_radius_px: must lie in [1, 100]");
@@ -174,19 +175,20 @@ std::optional<Outcome> Verify::tick(Context& ctx) {
     return ended;
   }
   if (!capture_.done()) return std::nullopt;
-  const Outcome outcome = measure(ctx);
+  const VerifyMeasured measured = measure(ctx);
+  const VerifyJudgement judged = judge_verify(
+      measured, {result_.tolerance_mm, settings_->min_on_target, settings_->spread_sigmas});
+  if (judged.correct_pose) correct_pose(ctx);
   ctx.blackboard().set(keys::kVerify, result_);
   write_view(ctx);
-  return outcome;
+  return Outcome{judged.outcome, target_prefix(ctx) + judged.reason};
 }
 
-Outcome Verify::measure(Context& ctx) {
-  const std::string who = target_prefix(ctx);
+VerifyMeasured Verify::measure(Context& ctx) {
   const RobotSpec& robot = ctx.robot();
   const PinholeModel& colour = robot.camera.colour.intrinsics;
   const std::vector<ColourFrame>& f = capture_.frames();
   const ColourFrame& dark = f[0];
-  const ColourFrame& dots = f[1];
   const ColourFrame& area = f[2];
   for (int i = 0; i < 4; ++i) {
     const auto px = colour.project(view_->model_points_camera[i]);
@@ -203,14 +205,10 @@ Outcome Verify::measure(Context& ctx) {
       light::model_depth(*view_->model, view_->T_camera_model, colour);
   const light::LightOnTarget light = light::light_on_target(dark, area, depth, model_z);
   result_.light_on_target_fraction = light.on_target_fraction;
+  VerifyMeasured m;
+  m.on_target_fraction = light.on_target_fraction;
+  m.in_front_fraction = light.in_front_fraction;
 
-  // Where the camera sees the target, from its outline in the dark frame: the Model Points slide
-  // with it along their plane. The depth fixes the face's plane; the outline, where on the plane.
-  const std::array<Eigen::Vector3d, 4>& M = view_->model_points_camera;
-  const Eigen::Vector3d centre = 0.25 * (M[0] + M[1] + M[2] + M[3]);
-  Eigen::Vector3d plane_normal = (M[2] - M[0]).cross(M[3] - M[1]);
-  plane_normal = plane_normal.norm() > 1e-12 ? plane_normal.normalized()
-                                             : Eigen::Vector3d(-centre.normalized());
   // What the depth fit is worth at the Model Points: the spread of the fits made without each
   // part of the model.
   const IcpModel icp_model(*view_->model);
@@ -219,51 +217,74 @@ Outcome Verify::measure(Context& ctx) {
   const PoseSpread spread =
       pose_spread(icp_model, scene, view_->T_camera_model,
                   {ctx.target->model_points.begin(), ctx.target->model_points.end()});
+  m.spread_model_point_mm = spread.model_point_mm;
+  m.spread_blocks = spread.blocks;
+  m.spread_matches = spread.matches;
+
+  see_outline(colour, dark, model_z, m);
+  measure_dots(ctx, depth, m);
+  for (const Eigen::Vector3d& s : slide_at_) m.moves_mm = std::max(m.moves_mm, 1e3 * s.norm());
+  return m;
+}
+
+// Where the camera sees the target, from its outline in the dark frame: the Model Points slide
+// with it along their plane. The depth fixes the face's plane; the outline, where on the plane.
+void Verify::see_outline(const PinholeModel& colour, const ColourFrame& dark,
+                         const std::vector<float>& model_z, VerifyMeasured& m) {
+  const std::array<Eigen::Vector3d, 4>& M = view_->model_points_camera;
+  const Eigen::Vector3d centre = 0.25 * (M[0] + M[1] + M[2] + M[3]);
+  Eigen::Vector3d plane_normal = (M[2] - M[0]).cross(M[3] - M[1]);
+  plane_normal = plane_normal.norm() > 1e-12 ? plane_normal.normalized()
+                                             : Eigen::Vector3d(-centre.normalized());
   light::OutlineSettings outline_settings;
   outline_settings.search_px = settings_->outline_search_px;
   const auto outline = light::match_outline(dark, model_z, outline_settings);
   Eigen::Vector3d slide = Eigen::Vector3d::Zero();
   // Each Model Point's own slide: the outline's shift and its turn about the face's normal.
-  std::array<Eigen::Vector3d, 4> slide_at{};
-  slide_at.fill(Eigen::Vector3d::Zero());
-  bool clear = false, gross = false;
-  std::string outline_text;
+  slide_at_.fill(Eigen::Vector3d::Zero());
   // An outline that fixes no image direction checks nothing.
-  if (outline && outline->matched_fraction >= settings_->min_outline_matched &&
-      outline->fixed_directions > 0) {
-    const Eigen::Vector3d seen =
-        light::slide_for_shift(colour, centre, plane_normal, outline->shift_px);
-    // A clear outline (a sign's, a pillar's sides) resolves a millimetre; a faint one (a rough
-    // bunny's a metre away, its outline the rough surface's own) only a gross slide, beyond
-    // gross_slide_tolerances: the slide ICP leaves a flat face with.
-    clear = outline->matched_fraction >= settings_->clear_outline_matched;
-    // Gross: beyond the tolerances, beyond what a pixel's doubt in the edges could make, and a
-    // better match there than where the model is (a faint outline's best is often only as bad).
-    gross = 1e3 * seen.norm() > settings_->gross_slide_tolerances * result_.tolerance_mm &&
-            outline->shift_px.norm() > kGrossShiftPx &&
-            (clear || outline->cost_px < kGrossCostShare * outline->cost_at_zero_px);
-    if (clear || gross) slide = seen;
-    // A clear outline's turn is measured too (a gross slide is corrected, then looked at again).
-    for (int i = 0; i < 4; ++i) {
-      slide_at[i] = slide;
-      if (!clear || gross || result_.expected_colour_px[i].x() < 0) continue;
-      slide_at[i] =
-          light::slide_for_shift(colour, M[i], plane_normal,
-                                 light::outline_moves(*outline, result_.expected_colour_px[i]));
-    }
-    outline_text = "the outline seen " + fixed(1e3 * seen.norm(), 1) +
+  if (!(outline && outline->matched_fraction >= settings_->min_outline_matched &&
+        outline->fixed_directions > 0)) {
+    m.outline_text = outline ? "the outline not matched (" +
+                                   fixed(100.0 * outline->matched_fraction, 0) + " % of it, " +
+                                   fixed(100.0 * settings_->min_outline_matched, 0) + " % needed)"
+                             : "no outline in view";
+    return;
+  }
+  const Eigen::Vector3d seen =
+      light::slide_for_shift(colour, centre, plane_normal, outline->shift_px);
+  // A clear outline (a sign's, a pillar's sides) resolves a millimetre; a faint one (a rough
+  // bunny's a metre away, its outline the rough surface's own) only a gross slide, beyond
+  // gross_slide_tolerances: the slide ICP leaves a flat face with.
+  const bool clear = outline->matched_fraction >= settings_->clear_outline_matched;
+  // Gross: beyond the tolerances, beyond what a pixel's doubt in the edges could make, and a
+  // better match there than where the model is (a faint outline's best is often only as bad).
+  const bool gross = 1e3 * seen.norm() > settings_->gross_slide_tolerances * result_.tolerance_mm &&
+                     outline->shift_px.norm() > kGrossShiftPx &&
+                     (clear || outline->cost_px < kGrossCostShare * outline->cost_at_zero_px);
+  if (clear || gross) slide = seen;
+  // A clear outline's turn is measured too (a gross slide is corrected, then looked at again).
+  for (int i = 0; i < 4; ++i) {
+    slide_at_[i] = slide;
+    if (!clear || gross || result_.expected_colour_px[i].x() < 0) continue;
+    slide_at_[i] = light::slide_for_shift(
+        colour, M[i], plane_normal, light::outline_moves(*outline, result_.expected_colour_px[i]));
+  }
+  m.outline_clear = clear;
+  m.outline_gross = gross;
+  m.outline_text = "the outline seen " + fixed(1e3 * seen.norm(), 1) +
                    " mm from the aligned pose (" + fixed(outline->shift_px.x(), 1) + ", " +
                    fixed(outline->shift_px.y(), 1) + " px, turned " +
                    fixed(rad_to_deg(outline->rotation_rad), 2) + " deg, " +
                    std::to_string(outline->fixed_directions) + " directions fixed, " +
                    fixed(100.0 * outline->matched_fraction, 0) + " % matched)";
-  } else {
-    outline_text = outline ? "the outline not matched (" +
-                                 fixed(100.0 * outline->matched_fraction, 0) + " % of it, " +
-                                 fixed(100.0 * settings_->min_outline_matched, 0) + " % needed)"
-                           : "no outline in view";
-  }
+}
 
+// The dots in the colour image, lifted onto the surface and compared with the Model Points.
+void Verify::measure_dots(const Context& ctx, const light::RegisteredDepth& depth,
+                          VerifyMeasured& m) {
+  const PinholeModel& colour = ctx.robot().camera.colour.intrinsics;
+  const std::array<Eigen::Vector3d, 4>& M = view_->model_points_camera;
   // On a small target the four dots lie closer than search_px: each window must hold one dot
   // only, or the centroid of two is reported as each.
   double search_px = settings_->search_px;
@@ -273,14 +294,14 @@ Outcome Verify::measure(Context& ctx) {
           search_px, 0.45 * (result_.expected_colour_px[i] - result_.expected_colour_px[j]).norm());
     }
   }
-  const auto found = light::find_dots(dark, dots, result_.expected_colour_px, search_px);
+  const auto found = light::find_dots(capture_.frames()[0], capture_.frames()[1],
+                                      result_.expected_colour_px, search_px);
   std::array<Eigen::Vector2d, 4> observed{};
   int seen = 0;
   double sum_mm = 0.0, sum_at_pose_mm = 0.0;
-  std::string unseen;
   for (int i = 0; i < 4; ++i) {
     if (!found[i]) {
-      unseen += (unseen.empty() ? "" : ", ") + std::to_string(i + 1);
+      m.unseen += (m.unseen.empty() ? "" : ", ") + std::to_string(i + 1);
       continue;
     }
     observed[i] = *found[i];
@@ -295,10 +316,10 @@ Outcome Verify::measure(Context& ctx) {
       const auto px = colour.project(point);
       return (px ? lift_on_target(depth, colour, *px, point, n) : std::nullopt).value_or(point);
     };
-    const Eigen::Vector3d M_seen = M[i] + slide_at[i];
+    const Eigen::Vector3d M_seen = M[i] + slide_at_[i];
     const auto p = lift_on_target(depth, colour, *found[i], M_seen, n);
     if (!p) {
-      unseen += (unseen.empty() ? "" : ", ") + std::to_string(i + 1) + " (no surface)";
+      m.unseen += (m.unseen.empty() ? "" : ", ") + std::to_string(i + 1) + " (no surface)";
       continue;
     }
     const double e_mm = 1e3 * (*p - on_surface(M_seen)).norm();
@@ -309,94 +330,25 @@ Outcome Verify::measure(Context& ctx) {
   }
   if (seen > 0) result_.observed_colour_px = observed;
   if (seen > 0) result_.observed_error_mm = sum_mm / seen;
+  if (seen > 0) m.at_pose_mm = sum_at_pose_mm / seen;
+  m.dots_seen = seen;
+  m.observed_error_mm = result_.observed_error_mm;
+  m.corner_error_mm = result_.corner_error_mm;
+}
 
-  const std::string light_text = fixed(100.0 * light.on_target_fraction, 1) +
-                                 " % of the light on the target, " +
-                                 fixed(100.0 * light.in_front_fraction, 1) + " % in front of it";
-  // A gross slide corrects the pose, and the next look checks the corrected pose. It comes first:
-  // the light's landing was judged against the model where it is not.
-  const auto correct_pose = [&](const std::string& why) {
-    AlignResult corrected = *ctx.blackboard().find(keys::kAlign);
-    // The rigid move that carries the Model Points onto where the outline sees them: its shift
-    // and its turn (a gross slide's is the shift alone).
-    Eigen::Matrix<double, 3, 4> from, to;
-    for (int i = 0; i < 4; ++i) {
-      from.col(i) = M[i];
-      to.col(i) = M[i] + slide_at[i];
-    }
-    const Eigen::Isometry3d T_seen_aligned(Eigen::umeyama(from, to, false));
-    corrected.T_camera_model = T_seen_aligned * view_->T_camera_model;
-    ctx.blackboard().set(keys::kAlign, std::move(corrected));
-    return Outcome{"misaligned", who + why + "; the pose slides with the outline; " + light_text};
-  };
-  if (gross) return correct_pose(outline_text);
-  if (light.on_target_fraction < settings_->min_on_target &&
-      light.in_front_fraction >= 1.0 - light.on_target_fraction - light.in_front_fraction) {
-    return Outcome{"occluded", who + "something stands in the beam: " + light_text + " (at least " +
-                                   fixed(100.0 * settings_->min_on_target, 0) + " % needed); " +
-                                   outline_text};
+// The rigid move that carries the Model Points onto where the outline sees them (its shift and
+// its turn; a gross slide's is the shift alone), made to the aligned pose for the next look.
+void Verify::correct_pose(Context& ctx) const {
+  const std::array<Eigen::Vector3d, 4>& M = view_->model_points_camera;
+  AlignResult corrected = *ctx.blackboard().find(keys::kAlign);
+  Eigen::Matrix<double, 3, 4> from, to;
+  for (int i = 0; i < 4; ++i) {
+    from.col(i) = M[i];
+    to.col(i) = M[i] + slide_at_[i];
   }
-  if (seen < 4) {
-    return Outcome{"not_seen", who + "the colour camera did not find Model Point " + unseen +
-                                   "'s dot; " + light_text};
-  }
-  const std::string error_text =
-      "observed error " + fixed(*result_.observed_error_mm, 2) + " mm (corners " +
-      fixed(*result_.corner_error_mm[0], 1) + ", " + fixed(*result_.corner_error_mm[1], 1) + ", " +
-      fixed(*result_.corner_error_mm[2], 1) + ", " + fixed(*result_.corner_error_mm[3], 1) +
-      " mm), " + outline_text + ", the fit's spread " + fixed(spread.model_point_mm, 2) +
-      " mm over " + std::to_string(spread.blocks) + " blocks";
-  // The camera sees the light land on the model where the fit put it, but not whether the model
-  // sits where the real target does: a rough scan fits a surface it does not match, and its
-  // parts disagree on the pose. When that disagreement, as many of its standard deviations as
-  // spread_sigmas, exceeds the tolerance, no check can vouch for the visit.
-  const double spread_bound_mm = settings_->spread_sigmas * spread.model_point_mm;
-  if (spread.blocks < 4) {
-    return Outcome{"uncertain", who + "too little of the model matched the depth (" +
-                                    std::to_string(spread.matches) + " points in " +
-                                    std::to_string(spread.blocks) +
-                                    " parts of 20 or more) to check the fit against itself; " +
-                                    error_text};
-  }
-  if (spread_bound_mm > result_.tolerance_mm) {
-    return Outcome{"uncertain",
-                   who + "the model does not fit the surface well enough: fitted without each of " +
-                       std::to_string(spread.blocks) + " parts in turn, it puts the Model Points " +
-                       fixed(spread.model_point_mm, 2) + " mm apart (one standard deviation; " +
-                       fixed(settings_->spread_sigmas, 0) + " of them, " +
-                       fixed(spread_bound_mm, 1) + " mm, exceed the tolerance of " +
-                       fixed(result_.tolerance_mm, 1) + " mm); " + error_text};
-  }
-  // The light lands where the aligned pose put it and the pose is what misses: move it. Where
-  // the light misses the aligned pose too, the calibration is mended first. The error is
-  // measured against where the outline puts the Model Points, and a rough face blurs that
-  // reading by a few tenths: so a move of more than half the tolerance at any Model Point is
-  // made and looked at again once the error reads more than half the tolerance, within it or
-  // not (two signs read 2.6 and 2.85 mm at 3.1 and 3.3 mm true). A bunny's faint edge may move
-  // its Model Points by that much where they are not: the second look costs a look, not a miss.
-  const double at_pose_mm = sum_at_pose_mm / seen;
-  double moves_mm = 0.0;
-  for (const Eigen::Vector3d& s : slide_at) moves_mm = std::max(moves_mm, 1e3 * s.norm());
-  const bool beyond = *result_.observed_error_mm > result_.tolerance_mm;
-  const double half_tolerance_mm = 0.5 * result_.tolerance_mm;
-  if (clear && moves_mm > half_tolerance_mm && *result_.observed_error_mm > half_tolerance_mm &&
-      at_pose_mm <= result_.tolerance_mm) {
-    return correct_pose(error_text + (beyond ? " exceeds" : " is within") + " the tolerance of " +
-                        fixed(result_.tolerance_mm, 1) + " mm, the outline moves a Model Point " +
-                        fixed(moves_mm, 2) + " mm, the light " + fixed(at_pose_mm, 2) +
-                        " mm from the aligned pose's corners");
-  }
-  if (*result_.observed_error_mm > result_.tolerance_mm) {
-    return Outcome{"out_of_tolerance", who + error_text + " exceeds the tolerance of " +
-                                           fixed(result_.tolerance_mm, 1) + " mm; " + light_text};
-  }
-  if (light.on_target_fraction < settings_->min_on_target) {
-    return Outcome{"out_of_tolerance",
-                   who + "the light spills off the target: " + light_text + " (at least " +
-                       fixed(100.0 * settings_->min_on_target, 0) + " % needed); " + error_text};
-  }
-  return Outcome{"verified", who + error_text + " within " + fixed(result_.tolerance_mm, 1) +
-                                 " mm; " + light_text};
+  const Eigen::Isometry3d T_seen_aligned(Eigen::umeyama(from, to, false));
+  corrected.T_camera_model = T_seen_aligned * view_->T_camera_model;
+  ctx.blackboard().set(keys::kAlign, std::move(corrected));
 }
 
 // The camera's own view of the check, for a person: the lit content area, the Model Points where

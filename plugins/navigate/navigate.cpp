@@ -50,19 +50,19 @@ double clamp(double v, double limit) {
 }  // namespace
 
 Navigate::Navigate(const Params& params, const RunContext& run)
-    : tolerance_m_(params.number("tolerance_m")),
-      tolerance_rad_(deg_to_rad(params.number("tolerance_deg"))),
-      lookahead_m_(params.number("lookahead_m")),
-      max_speed_mps_(params.number("max_speed_mps")),
-      max_turn_rate_radps_(deg_to_rad(params.number("max_turn_rate_dps"))),
-      blocked_s_(params.number("blocked_s")),
-      timeout_s_(params.number("timeout_s")),
-      lost_std_m_(params.number("lost_std_m")),
-      lost_unconverged_s_(params.number("lost_unconverged_s")),
-      obstacle_lookahead_m_(params.number("obstacle_lookahead_m")),
-      max_detour_m_(params.number("max_detour_m")),
-      reapproach_margin_px_(params.number("reapproach_margin_px")),
-      reapproach_max_extra_m_(params.number("reapproach_max_extra_m")) {
+    : tolerance_m_(params.number(param::kToleranceM)),
+      tolerance_rad_(deg_to_rad(params.number(param::kToleranceDeg))),
+      lookahead_m_(params.number(param::kLookaheadM)),
+      max_speed_mps_(params.number(param::kMaxSpeedMps)),
+      max_turn_rate_radps_(deg_to_rad(params.number(param::kMaxTurnRateDps))),
+      blocked_s_(params.number(param::kBlockedS)),
+      timeout_s_(params.number(param::kTimeoutS)),
+      lost_std_m_(params.number(param::kLostStdM)),
+      lost_unconverged_s_(params.number(param::kLostUnconvergedS)),
+      obstacle_lookahead_m_(params.number(param::kObstacleLookaheadM)),
+      max_detour_m_(params.number(param::kMaxDetourM)),
+      reapproach_margin_px_(params.number(param::kReapproachMarginPx)),
+      reapproach_max_extra_m_(params.number(param::kReapproachMaxExtraM)) {
   if (!run.map) throw std::runtime_error("navigate needs the mission's map");
   const double radius_m = run.mission != nullptr ? run.mission->robot.base.radius_m : 0.35;
   if (run.mission != nullptr) {
@@ -119,12 +119,12 @@ void Navigate::start(Context& ctx) {
     }
     if (!chosen_m) {
       // Driving to where the content cannot fit either would only bring aim back here.
-      early_ =
-          Outcome{"unreachable", "target " + ctx.target->id + ": from no free stand-off up to " +
-                                     std::to_string(measured.standoff_m) +
-                                     " m off its aligned pose does the content fit the "
-                                     "projector image (" +
-                                     problem + ")"};
+      early_ = Outcome{outcome::kUnreachable,
+                       "target " + ctx.target->id + ": from no free stand-off up to " +
+                           std::to_string(measured.standoff_m) +
+                           " m off its aligned pose does the content fit the "
+                           "projector image (" +
+                           problem + ")"};
       return;
     }
     ctx.log().debug("navigate " + ctx.target->id + ": re-approaching the aligned pose from " +
@@ -234,24 +234,14 @@ std::vector<Eigen::Vector2d> Navigate::obstacles_on_path(Context& ctx, const Pos
   return hits;
 }
 
-std::optional<Outcome> Navigate::tick(Context& ctx) {
-  if (early_) return early_;
-  if (ctx.cancel_requested()) {
+// Lost (the estimate too wide, or its scans off the map too long) or out of time.
+std::optional<Outcome> Navigate::check_localization(Context& ctx, const PoseEstimate2D& estimate,
+                                                    double now_s) {
+  if (position_std_m(estimate) > lost_std_m_) {
     command(ctx, 0, 0);
-    return Outcome{kOutcomeCancelled, "cancelled"};
-  }
-  const double now_s = ctx.state_elapsed_s();
-  const PoseEstimate2D* estimate = ctx.blackboard().find(keys::kLocalization);
-  if (estimate == nullptr) {
-    command(ctx, 0, 0);
-    return Outcome{kOutcomeFailed, "no localization estimate on the blackboard"};
-  }
-  const Pose2D pose = estimate->mean;
-  if (position_std_m(*estimate) > lost_std_m_) {
-    command(ctx, 0, 0);
-    return Outcome{"lost", "localization standard deviation " +
-                               std::to_string(position_std_m(*estimate)) + " m exceeds " +
-                               std::to_string(lost_std_m_) + " m"};
+    return Outcome{outcome::kLost, "localization standard deviation " +
+                                       std::to_string(position_std_m(estimate)) + " m exceeds " +
+                                       std::to_string(lost_std_m_) + " m"};
   }
   // A tight cloud whose scans no longer fit the map is as lost as a wide one.
   const bool* converged = ctx.blackboard().find(keys::kLocalizationConverged);
@@ -259,85 +249,42 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
     last_converged_s_ = now_s;
   } else if (now_s - last_converged_s_ > lost_unconverged_s_) {
     command(ctx, 0, 0);
-    return Outcome{"lost",
+    return Outcome{outcome::kLost,
                    "localization not converged for " + std::to_string(lost_unconverged_s_) + " s"};
   }
   if (now_s - start_s_ > timeout_s_) {
     command(ctx, 0, 0);
-    return Outcome{"timeout", "goal not reached within " + std::to_string(timeout_s_) + " s"};
+    return Outcome{outcome::kTimeout,
+                   "goal not reached within " + std::to_string(timeout_s_) + " s"};
   }
+  return std::nullopt;
+}
 
-  if (path_.points_m.empty()) {
-    if (!replan(ctx, pose)) {
-      command(ctx, 0, 0);
-      return Outcome{"unreachable", "no path to the stand-off pose (" + std::to_string(goal_.x_m) +
-                                        ", " + std::to_string(goal_.y_m) + ")"};
-    }
-  }
-
-  const Eigen::Vector2d to_goal(goal_.x_m - pose.x_m, goal_.y_m - pose.y_m);
-  const double goal_dist_m = to_goal.norm();
-  const double yaw_error_rad = wrap_angle_rad(goal_.yaw_rad - pose.yaw_rad);
-  // Done once the final turn has brought the heading well inside the tolerance, so the stop is
-  // not on the edge of it.
-  if (final_turn_ && goal_dist_m <= tolerance_m_ &&
-      std::abs(yaw_error_rad) <= kAimFraction * tolerance_rad_) {
-    command(ctx, 0, 0);
-    result_.arrived_at = *estimate;
-    ctx.blackboard().set(keys::kNavigate, result_);
-    return Outcome{"succeeded", ""};
-  }
-
-  // Progress: path left plus the heading still to turn once there.
-  const double remaining =
-      remaining_m(pose) + (final_turn_ ? 0.3 * std::abs(yaw_error_rad) : 0.3 * kPi);
-  if (rebase_progress_) {
-    rebase_progress_ = false;
-    best_remaining_m_ = remaining;
-  } else if (remaining < best_remaining_m_ - kProgressM) {
-    best_remaining_m_ = remaining;
-    last_progress_s_ = now_s;
-  } else if (now_s - last_progress_s_ > blocked_s_) {
-    command(ctx, 0, 0);
-    return Outcome{"blocked", "no progress for " + std::to_string(blocked_s_) + " s"};
-  }
-
-  if (!final_turn_) {
-    const auto obstacles = obstacles_on_path(ctx, pose);
-    if (!obstacles.empty()) {
-      command(ctx, 0, 0);
-      if (now_s - last_replan_s_ >= kReplanPeriodS) {
-        // Each point grown into a disc of kUnmappedClearanceM: the new path keeps the robot's
-        // radius plus that from it.
-        std::vector<Eigen::Vector2d> grown;
-        const double step_m = 0.5 * planner_->grid().resolution_m();
-        for (const Eigen::Vector2d& p : obstacles) {
-          for (double dy = -kUnmappedClearanceM; dy <= kUnmappedClearanceM + 1e-9; dy += step_m) {
-            for (double dx = -kUnmappedClearanceM; dx <= kUnmappedClearanceM + 1e-9; dx += step_m) {
-              if (std::hypot(dx, dy) <= kUnmappedClearanceM)
-                grown.push_back(p + Eigen::Vector2d(dx, dy));
-            }
-          }
-        }
-        planner_->grid().add_obstacles(grown);
-        if (!replan(ctx, pose, remaining_m(pose) + max_detour_m_)) {
-          // No way round, or only a long one: wait on the path it has, for what blocks it may
-          // move away; forget what was seen and try again next period.
-          planner_ = std::make_unique<PathPlanner>(*map_planner_);
-        }
+// What the laser sees on the path goes onto the planner's grid, and a way round it is taken
+// when there is one not much longer than the path left.
+void Navigate::detour(Context& ctx, const Pose2D& pose,
+                      const std::vector<Eigen::Vector2d>& obstacles) {
+  // Each point grown into a disc of kUnmappedClearanceM: the new path keeps the robot's
+  // radius plus that from it.
+  std::vector<Eigen::Vector2d> grown;
+  const double step_m = 0.5 * planner_->grid().resolution_m();
+  for (const Eigen::Vector2d& p : obstacles) {
+    for (double dy = -kUnmappedClearanceM; dy <= kUnmappedClearanceM + 1e-9; dy += step_m) {
+      for (double dx = -kUnmappedClearanceM; dx <= kUnmappedClearanceM + 1e-9; dx += step_m) {
+        if (std::hypot(dx, dy) <= kUnmappedClearanceM) grown.push_back(p + Eigen::Vector2d(dx, dy));
       }
-      return std::nullopt;
     }
   }
-
-  if (goal_dist_m <= kAimFraction * tolerance_m_) final_turn_ = true;
-  if (final_turn_ && goal_dist_m > tolerance_m_) final_turn_ = false;
-  if (final_turn_) {
-    const double w = clamp(kTurnGain * yaw_error_rad, max_turn_rate_radps_);
-    command(ctx, 0, std::copysign(std::max(std::abs(w), kMinTurnRateRadps), w));
-    return std::nullopt;
+  planner_->grid().add_obstacles(grown);
+  if (!replan(ctx, pose, remaining_m(pose) + max_detour_m_)) {
+    // No way round, or only a long one: wait on the path it has, for what blocks it may
+    // move away; forget what was seen and try again next period.
+    planner_ = std::make_unique<PathPlanner>(*map_planner_);
   }
+}
 
+// The drive along the path, slowed near the goal and for what stands ahead.
+void Navigate::pursue(Context& ctx, const Pose2D& pose, double goal_dist_m) {
   // Pure pursuit: steer for the point lookahead_m along the path (the goal itself at the end).
   const Eigen::Vector2d position(pose.x_m, pose.y_m);
   Eigen::Vector2d carrot = path_.points_m.back();
@@ -354,7 +301,7 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
   const double distance_m = std::max(1e-3, d.norm());
   if (std::abs(alpha) > kTurnInPlaceRad) {
     command(ctx, 0, clamp(kTurnGain * alpha, max_turn_rate_radps_));
-    return std::nullopt;
+    return;
   }
   double v = std::min(max_speed_mps_, std::max(kMinApproachSpeedMps, kApproachGain * goal_dist_m));
   const double safe_mps = safe_speed_mps(ctx, pose);
@@ -363,7 +310,7 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
     // without coming nearer anything, and what is then abeam no longer holds it.
     const double w_turn = clamp(kTurnGain * alpha, max_turn_rate_radps_);
     command(ctx, 0, std::copysign(std::max(std::abs(w_turn), kMinTurnRateRadps), w_turn));
-    return std::nullopt;
+    return;
   }
   v = std::min(v, safe_mps);
   v *= std::cos(alpha);
@@ -373,6 +320,77 @@ std::optional<Outcome> Navigate::tick(Context& ctx) {
     w = clamp(w, max_turn_rate_radps_);
   }
   command(ctx, v, w);
+}
+
+std::optional<Outcome> Navigate::tick(Context& ctx) {
+  if (early_) return early_;
+  if (ctx.cancel_requested()) {
+    command(ctx, 0, 0);
+    return Outcome{kOutcomeCancelled, "cancelled"};
+  }
+  const double now_s = ctx.state_elapsed_s();
+  const PoseEstimate2D* estimate = ctx.blackboard().find(keys::kLocalization);
+  if (estimate == nullptr) {
+    command(ctx, 0, 0);
+    return Outcome{kOutcomeFailed, "no localization estimate on the blackboard"};
+  }
+  const Pose2D pose = estimate->mean;
+  if (auto ended = check_localization(ctx, *estimate, now_s)) return ended;
+
+  if (path_.points_m.empty()) {
+    if (!replan(ctx, pose)) {
+      command(ctx, 0, 0);
+      return Outcome{outcome::kUnreachable, "no path to the stand-off pose (" +
+                                                std::to_string(goal_.x_m) + ", " +
+                                                std::to_string(goal_.y_m) + ")"};
+    }
+  }
+
+  const Eigen::Vector2d to_goal(goal_.x_m - pose.x_m, goal_.y_m - pose.y_m);
+  const double goal_dist_m = to_goal.norm();
+  const double yaw_error_rad = wrap_angle_rad(goal_.yaw_rad - pose.yaw_rad);
+  // Done once the final turn has brought the heading well inside the tolerance, so the stop is
+  // not on the edge of it.
+  if (final_turn_ && goal_dist_m <= tolerance_m_ &&
+      std::abs(yaw_error_rad) <= kAimFraction * tolerance_rad_) {
+    command(ctx, 0, 0);
+    result_.arrived_at = *estimate;
+    ctx.blackboard().set(keys::kNavigate, result_);
+    return Outcome{outcome::kSucceeded, ""};
+  }
+
+  // Progress: path left plus the heading still to turn once there.
+  const double remaining =
+      remaining_m(pose) + (final_turn_ ? 0.3 * std::abs(yaw_error_rad) : 0.3 * kPi);
+  if (rebase_progress_) {
+    rebase_progress_ = false;
+    best_remaining_m_ = remaining;
+  } else if (remaining < best_remaining_m_ - kProgressM) {
+    best_remaining_m_ = remaining;
+    last_progress_s_ = now_s;
+  } else if (now_s - last_progress_s_ > blocked_s_) {
+    command(ctx, 0, 0);
+    return Outcome{outcome::kBlocked, "no progress for " + std::to_string(blocked_s_) + " s"};
+  }
+
+  if (!final_turn_) {
+    const auto obstacles = obstacles_on_path(ctx, pose);
+    if (!obstacles.empty()) {
+      command(ctx, 0, 0);
+      if (now_s - last_replan_s_ >= kReplanPeriodS) detour(ctx, pose, obstacles);
+      return std::nullopt;
+    }
+  }
+
+  if (goal_dist_m <= kAimFraction * tolerance_m_) final_turn_ = true;
+  if (final_turn_ && goal_dist_m > tolerance_m_) final_turn_ = false;
+  if (final_turn_) {
+    const double w = clamp(kTurnGain * yaw_error_rad, max_turn_rate_radps_);
+    command(ctx, 0, std::copysign(std::max(std::abs(w), kMinTurnRateRadps), w));
+    return std::nullopt;
+  }
+
+  pursue(ctx, pose, goal_dist_m);
   return std::nullopt;
 }
 

@@ -9,6 +9,36 @@
 #include "projtour/path_planner.hpp"
 
 namespace projtour::navigate {
+// Outcomes: the descriptor's outcome lists and every return site name them through these, so a
+// misspelt outcome does not compile.
+namespace outcome {
+inline constexpr const char* kSucceeded = "succeeded";
+inline constexpr const char* kUnreachable = "unreachable";
+inline constexpr const char* kBlocked = "blocked";
+inline constexpr const char* kTimeout = "timeout";
+inline constexpr const char* kLost = "lost";
+}  // namespace outcome
+// Parameters: the descriptor's tables and every read of a value name them through these.
+namespace param {
+inline constexpr const char* kToleranceM = "tolerance_m";
+inline constexpr const char* kToleranceDeg = "tolerance_deg";
+inline constexpr const char* kLookaheadM = "lookahead_m";
+inline constexpr const char* kMaxSpeedMps = "max_speed_mps";
+inline constexpr const char* kMaxTurnRateDps = "max_turn_rate_dps";
+inline constexpr const char* kBlockedS = "blocked_s";
+inline constexpr const char* kTimeoutS = "timeout_s";
+inline constexpr const char* kLostStdM = "lost_std_m";
+inline constexpr const char* kLostUnconvergedS = "lost_unconverged_s";
+inline constexpr const char* kObstacleLookaheadM = "obstacle_lookahead_m";
+inline constexpr const char* kMaxDetourM = "max_detour_m";
+inline constexpr const char* kReapproachMarginPx = "reapproach_margin_px";
+inline constexpr const char* kReapproachMaxExtraM = "reapproach_max_extra_m";
+inline constexpr const char* kWidenM = "widen_m";
+inline constexpr const char* kSpinRateDps = "spin_rate_dps";
+inline constexpr const char* kGiveUpS = "give_up_s";
+inline constexpr const char* kSettleS = "settle_s";
+inline constexpr const char* kConvergedStdM = "converged_std_m";
+}  // namespace param
 
 // Drives to the current target's stand-off pose (from its aligned pose when align has measured
 // it in this visit). Outcomes: succeeded (the localized estimate
@@ -33,6 +63,12 @@ class Navigate : public Behaviour {
   // Path length left from the closest point ahead of `progress_index_`.
   double remaining_m(const Pose2D& pose);
   void command(Context& ctx, double v_mps, double w_radps);
+  // tick's stages: the estimate's health and the time left, the way round what blocks the path,
+  // and the drive along it.
+  std::optional<Outcome> check_localization(Context& ctx, const PoseEstimate2D& estimate,
+                                            double now_s);
+  void detour(Context& ctx, const Pose2D& pose, const std::vector<Eigen::Vector2d>& obstacles);
+  void pursue(Context& ctx, const Pose2D& pose, double goal_dist_m);
 
   // Parameters.
   double tolerance_m_, tolerance_rad_, lookahead_m_, max_speed_mps_, max_turn_rate_radps_;

@@ -11,59 +11,63 @@ namespace {
 
 void check_navigate_params(const Params& p) {
   for (const char* name :
-       {"tolerance_m", "tolerance_deg", "lookahead_m", "blocked_s", "timeout_s", "lost_std_m",
-        "lost_unconverged_s", "obstacle_lookahead_m", "max_detour_m"}) {
+       {param::kToleranceM, param::kToleranceDeg, param::kLookaheadM, param::kBlockedS,
+        param::kTimeoutS, param::kLostStdM, param::kLostUnconvergedS, param::kObstacleLookaheadM,
+        param::kMaxDetourM}) {
     if (!(p.number(name) > 0.0)) {
       throw std::invalid_argument(std::string(name) + ": expected a positive number");
     }
   }
-  if (!(p.number("reapproach_margin_px") >= 0.0)) {
+  if (!(p.number(param::kReapproachMarginPx) >= 0.0)) {
     throw std::invalid_argument("reapproach_margin_px: expected a number >= 0");
   }
-  if (!(p.number("reapproach_max_extra_m") >= 0.0 && p.number("reapproach_max_extra_m") <= 3.0)) {
+  if (!(p.number(param::kReapproachMaxExtraM) >= 0.0 &&
+        p.number(param::kReapproachMaxExtraM) <= 3.0)) {
     throw std::invalid_argument("reapproach_max_extra_m: expected a number in [0, 3]");
   }
 }
 
 const projtour_param_desc kNavigateParams[] = {
-    {"tolerance_m", "number", "0.10", "succeed when the estimate is this close to the goal"},
-    {"tolerance_deg", "number", "5", "and its heading this close"},
-    {"lookahead_m", "number", "0.6", "pure pursuit lookahead distance"},
-    {"max_speed_mps", "number", "0", "speed limit (0: the robot file's)"},
-    {"max_turn_rate_dps", "number", "0", "turn rate limit (0: the robot file's)"},
-    {"blocked_s", "number", "15", "blocked after this long without progress"},
-    {"timeout_s", "number", "600", "give up after this long"},
-    {"lost_std_m", "number", "0.5", "lost when the position standard deviation exceeds this"},
-    {"lost_unconverged_s", "number", "10",
+    {param::kToleranceM, "number", "0.10", "succeed when the estimate is this close to the goal"},
+    {param::kToleranceDeg, "number", "5", "and its heading this close"},
+    {param::kLookaheadM, "number", "0.6", "pure pursuit lookahead distance"},
+    {param::kMaxSpeedMps, "number", "0", "speed limit (0: the robot file's)"},
+    {param::kMaxTurnRateDps, "number", "0", "turn rate limit (0: the robot file's)"},
+    {param::kBlockedS, "number", "15", "blocked after this long without progress"},
+    {param::kTimeoutS, "number", "600", "give up after this long"},
+    {param::kLostStdM, "number", "0.5", "lost when the position standard deviation exceeds this"},
+    {param::kLostUnconvergedS, "number", "10",
      "lost when localization has not been converged (scans off the map) for this long"},
-    {"obstacle_lookahead_m", "number", "1.5", "look for obstacles this far along the path"},
-    {"max_detour_m", "number", "10",
+    {param::kObstacleLookaheadM, "number", "1.5", "look for obstacles this far along the path"},
+    {param::kMaxDetourM, "number", "10",
      "a way round what blocks the path may be this much longer than the path left; past that it "
      "waits (a person in a corridor moves on sooner than the robot drives round the building)"},
-    {"reapproach_margin_px", "number", "40",
+    {param::kReapproachMarginPx, "number", "40",
      "re-approaching an aligned target: the stand-off is the nearest from which its content fits "
      "the projector image with this many pixels to spare (more than aim's margin: the base stops "
      "within tolerance_m of its goal, and a pillar's content 10 cm nearer is 60 px taller)"},
-    {"reapproach_max_extra_m", "number", "0.5",
+    {param::kReapproachMaxExtraM, "number", "0.5",
      "... searched in 5 cm steps up to this much beyond the target's standoff_m"},
 };
-const char* const kNavigateOutcomes[] = {"succeeded", "unreachable", "blocked", "timeout", "lost"};
+const char* const kNavigateOutcomes[] = {outcome::kSucceeded, outcome::kUnreachable,
+                                         outcome::kBlocked, outcome::kTimeout, outcome::kLost};
 
 const projtour_param_desc kRelocalizeParams[] = {
-    {"widen_m", "number", "1.0", "spread the particle cloud by this much"},
-    {"spin_rate_dps", "number", "30", "turn rate while spinning"},
-    {"give_up_s", "number", "40", "lost after this long without converging"},
-    {"settle_s", "number", "3", "converged for this long before succeeding"},
-    {"converged_std_m", "number", "0.15", "converged below this position standard deviation"},
+    {param::kWidenM, "number", "1.0", "spread the particle cloud by this much"},
+    {param::kSpinRateDps, "number", "30", "turn rate while spinning"},
+    {param::kGiveUpS, "number", "40", "lost after this long without converging"},
+    {param::kSettleS, "number", "3", "converged for this long before succeeding"},
+    {param::kConvergedStdM, "number", "0.15", "converged below this position standard deviation"},
 };
-const char* const kRelocalizeOutcomes[] = {"succeeded", "lost"};
+const char* const kRelocalizeOutcomes[] = {outcome::kSucceeded, outcome::kLost};
 
-const projtour_key_desc kNavigateKeys[] = {projtour::reads(keys::kLocalization),
-                                           projtour::reads_if_present(keys::kLocalizationConverged),
-                                           projtour::reads_if_present(keys::kLaserScan),
-                                           projtour::reads_if_present(keys::kAlign),
-                                           projtour::reads_if_present(keys::kCapture),
-                                           projtour::writes(keys::kNavigate)};
+const projtour_key_desc kNavigateKeys[] = {
+    projtour::reads(keys::kLocalization), projtour::reads_if_present(keys::kLocalizationConverged),
+    projtour::reads_if_present(keys::kLaserScan), projtour::reads_if_present(keys::kAlign),
+    projtour::reads_if_present(keys::kCapture),
+    // aim's reapproach: the stand-off fits the content through the
+    // calibration believed now (navigate.cpp's start)
+    projtour::reads_if_present(keys::kCalibration), projtour::writes(keys::kNavigate)};
 const projtour_key_desc kRelocalizeKeys[] = {projtour::reads(keys::kLocalization),
                                              projtour::reads(keys::kLocalizationConverged),
                                              projtour::writes(keys::kLocalizationWiden)};

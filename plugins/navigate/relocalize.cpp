@@ -7,11 +7,11 @@
 namespace projtour::navigate {
 
 Relocalize::Relocalize(const Params& params, const RunContext&)
-    : widen_m_(params.number("widen_m")),
-      spin_rate_radps_(deg_to_rad(params.number("spin_rate_dps"))),
-      give_up_s_(params.number("give_up_s")),
-      settle_s_(params.number("settle_s")),
-      converged_std_m_(params.number("converged_std_m")) {}
+    : widen_m_(params.number(param::kWidenM)),
+      spin_rate_radps_(deg_to_rad(params.number(param::kSpinRateDps))),
+      give_up_s_(params.number(param::kGiveUpS)),
+      settle_s_(params.number(param::kSettleS)),
+      converged_std_m_(params.number(param::kConvergedStdM)) {}
 
 void Relocalize::start(Context& ctx) {
   if (!ctx.drivers().base) throw std::runtime_error("relocalize needs a base driver");
@@ -41,12 +41,12 @@ std::optional<Outcome> Relocalize::tick(Context& ctx) {
   // Converged for a while, with the laser having swept the surroundings while it held.
   if (converged_since_s_ >= 0.0 && now_s - converged_since_s_ >= settle_s_) {
     base.command_velocity(0, 0);
-    return Outcome{"succeeded", ""};
+    return Outcome{outcome::kSucceeded, ""};
   }
   if (now_s - start_s_ > give_up_s_) {
     base.command_velocity(0, 0);
-    return Outcome{"lost", "localization did not converge within " + std::to_string(give_up_s_) +
-                               " s of spinning"};
+    return Outcome{outcome::kLost, "localization did not converge within " +
+                                       std::to_string(give_up_s_) + " s of spinning"};
   }
   base.command_velocity(0, spin_rate_radps_);
   return std::nullopt;

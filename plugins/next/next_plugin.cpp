@@ -4,6 +4,11 @@
 
 namespace projtour {
 namespace {
+// Outcomes: the descriptor's outcome lists and every return site name them through these, so a
+// misspelt outcome does not compile.
+namespace outcome {
+inline constexpr const char* kSucceeded = "succeeded";
+}  // namespace outcome
 
 class Next : public Behaviour {
  public:
@@ -20,7 +25,7 @@ class Next : public Behaviour {
   std::optional<Outcome> tick(Context& ctx) override {
     if (ctx.cancel_requested()) return Outcome{kOutcomeCancelled, "cancelled while stowing"};
     if (ctx.drivers().pan_tilt && !ctx.drivers().pan_tilt->reached()) return std::nullopt;
-    return Outcome{"succeeded", "projector blank, head stowed"};
+    return Outcome{outcome::kSucceeded, "projector blank, head stowed"};
   }
 
   void stop(Context& ctx) override {
@@ -28,7 +33,7 @@ class Next : public Behaviour {
   }
 };
 
-const char* const kOutcomes[] = {"succeeded"};
+const char* const kOutcomes[] = {outcome::kSucceeded};
 const projtour_kind_desc kKinds[] = {
     behaviour_kind<Next>("next", "blank the projector and stow the head", kOutcomes)};
 

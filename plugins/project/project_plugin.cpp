@@ -25,20 +25,22 @@
 #include "projtour/plugin_author.hpp"
 #include "projtour/projection.hpp"
 #include "projtour/run_image.hpp"
+#include "step_names.hpp"
 #include "tracker.hpp"
 
 namespace projtour {
 namespace {
 
+using namespace project::names;
 using project::PoseTracker;
 using project::read_track_settings;
 using project::TrackSettings;
 
 light::BeamGuardSettings read_guard_settings(const Params& params) {
   light::BeamGuardSettings s;
-  s.margin_m = params.number("beam_margin_m");
-  s.guard_m = params.number("beam_guard_m");
-  s.min_points = static_cast<int>(params.number("beam_min_points"));
+  s.margin_m = params.number(param::kBeamMarginM);
+  s.guard_m = params.number(param::kBeamGuardM);
+  s.min_points = static_cast<int>(params.number(param::kBeamMinPoints));
   return s;
 }
 
@@ -53,15 +55,15 @@ std::string fmt_quad(const Quad2d& q) {
 class Project : public Behaviour {
  public:
   Project(const Params& params, const RunContext& run)
-      : dwell_param_s_(params.number("dwell_s")),
-        planarity_warn_mm_(params.number("planarity_warn_mm")),
-        min_area_px2_(params.number("min_area_px2")),
+      : dwell_param_s_(params.number(param::kDwellS)),
+        planarity_warn_mm_(params.number(param::kPlanarityWarnMm)),
+        min_area_px2_(params.number(param::kMinAreaPx2)),
         track_(read_track_settings(params)),
         tracker_(track_),
-        guard_enabled_(params.boolean("beam_guard")),
+        guard_enabled_(params.boolean(param::kBeamGuard)),
         guard_(read_guard_settings(params)),
-        beam_clear_s_(params.number("beam_clear_s")),
-        beam_max_blocked_s_(params.number("beam_max_blocked_s")) {
+        beam_clear_s_(params.number(param::kBeamClearS)),
+        beam_max_blocked_s_(params.number(param::kBeamMaxBlockedS)) {
     if (run.mission == nullptr) throw std::invalid_argument("project needs the mission's robot");
     // The undistortion maps depend only on the projector: computed once for the whole tour.
     warper_ = std::make_unique<ContentWarper>(run.mission->robot.projector.intrinsics);
@@ -152,7 +154,7 @@ class Project : public Behaviour {
       s.precision(1);
       s << std::fixed << "projected on " << ctx.target->id << " for " << dwell_s_ << " s"
         << tracked;
-      return Outcome{"succeeded", s.str()};
+      return Outcome{outcome::kSucceeded, s.str()};
     }
     if (tracking_ && frame) track(ctx, *frame);
     if (content_->is_video()) show_current(ctx, /*force=*/false);
@@ -214,7 +216,7 @@ class Project : public Behaviour {
         project_model_points(target.model_points, shown_T_projector_model_, projector);
     if (quad.in_front) result_.pixels_after_align = quad.pixels;
     publish(ctx);
-    if (!quad.on_screen) return Outcome{"off_screen", who + quad.problem};
+    if (!quad.on_screen) return Outcome{outcome::kOffScreen, who + quad.problem};
 
     const std::string degenerate = quad_problem(quad.ideal_pixels, min_area_px2_);
     if (!degenerate.empty()) {
@@ -313,7 +315,7 @@ class Project : public Behaviour {
       s.precision(1);
       s << std::fixed << "target " << ctx.target->id << ": the beam stayed blocked for more than "
         << beam_max_blocked_s_ << " s (" << still << ")";
-      return Outcome{"blocked_beam", s.str()};
+      return Outcome{outcome::kBlockedBeam, s.str()};
     }
     return std::nullopt;
   }
@@ -471,44 +473,46 @@ class Project : public Behaviour {
 };
 
 void check_params(const Params& params) {
-  if (params.number("planarity_warn_mm") < 0 || params.number("min_area_px2") < 0) {
+  if (params.number(param::kPlanarityWarnMm) < 0 || params.number(param::kMinAreaPx2) < 0) {
     throw std::invalid_argument("planarity_warn_mm and min_area_px2 must be >= 0");
   }
-  for (const char* key : {"beam_margin_m", "beam_guard_m", "beam_clear_s"}) {
+  for (const char* key : {param::kBeamMarginM, param::kBeamGuardM, param::kBeamClearS}) {
     if (!(params.number(key) >= 0)) throw std::invalid_argument(std::string(key) + " must be >= 0");
   }
-  if (!(params.number("beam_min_points") >= 1) || !(params.number("beam_max_blocked_s") > 0)) {
+  if (!(params.number(param::kBeamMinPoints) >= 1) ||
+      !(params.number(param::kBeamMaxBlockedS) > 0)) {
     throw std::invalid_argument("beam_min_points must be >= 1 and beam_max_blocked_s > 0");
   }
   read_track_settings(params);
 }
 
 const projtour_param_desc kParams[] = {
-    {"dwell_s", "number", "-1", "seconds to show the content; negative = the target's dwell_s"},
-    {"track", "boolean", "false",
+    {param::kDwellS, "number", "-1",
+     "seconds to show the content; negative = the target's dwell_s"},
+    {param::kTrack, "boolean", "false",
      "re-capture and re-align while showing, re-warping when the pose moves"},
-    {"track_threshold_mm", "number", "1.0",
+    {param::kTrackThresholdMm, "number", "1.0",
      "track: re-warp when a Model Point moves more than this (projector frame)"},
-    {"track_threshold_deg", "number", "0.5", "track: ... or the target turns more than this"},
-    {"track_min_inlier_fraction", "number", "0.6",
+    {param::kTrackThresholdDeg, "number", "0.5", "track: ... or the target turns more than this"},
+    {param::kTrackMinInlierFraction, "number", "0.6",
      "track: a frame whose fit has fewer inliers is skipped"},
-    {"track_crop_margin_m", "number", "0.05",
+    {param::kTrackCropMarginM, "number", "0.05",
      "track: each frame is cropped to the model's bounding sphere plus this"},
-    {"planarity_warn_mm", "number", "5",
+    {param::kPlanarityWarnMm, "number", "5",
      "warn when the Model Points lie farther than this from a common plane"},
-    {"min_area_px2", "number", "100", "smaller projected quadrilaterals count as zero area"},
-    {"beam_guard", "boolean", "true",
+    {param::kMinAreaPx2, "number", "100", "smaller projected quadrilaterals count as zero area"},
+    {param::kBeamGuard, "boolean", "true",
      "blank the projector while anything stands in the beam nearer than the target"},
-    {"beam_margin_m", "number", "0.10",
+    {param::kBeamMarginM, "number", "0.10",
      "beam guard: nearer than the target's nearest lit point by this counts"},
-    {"beam_guard_m", "number", "0.15",
+    {param::kBeamGuardM, "number", "0.15",
      "beam guard: the lit region grown by this on every side, at each reading's depth"},
-    {"beam_min_points", "number", "30",
+    {param::kBeamMinPoints, "number", "30",
      "beam guard: depth readings (every 2nd pixel each way) it takes to blank"},
-    {"beam_clear_s", "number", "1.0", "beam guard: shown again once clear this long"},
-    {"beam_max_blocked_s", "number", "15",
+    {param::kBeamClearS, "number", "1.0", "beam guard: shown again once clear this long"},
+    {param::kBeamMaxBlockedS, "number", "15",
      "beam guard: blanked longer than this in one go ends the visit blocked_beam"}};
-const char* const kOutcomes[] = {"succeeded", "off_screen", "blocked_beam"};
+const char* const kOutcomes[] = {outcome::kSucceeded, outcome::kOffScreen, outcome::kBlockedBeam};
 const projtour_key_desc kKeys[] = {reads(keys::kAlign), reads_if_present(keys::kCalibration),
                                    writes(keys::kProject)};
 const projtour_kind_desc kKinds[] = {with_keys(

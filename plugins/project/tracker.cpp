@@ -5,16 +5,17 @@
 #include <stdexcept>
 
 #include "projtour/geometry.hpp"
+#include "step_names.hpp"
 
 namespace projtour::project {
 
 TrackSettings read_track_settings(const Params& p) {
   TrackSettings s;
-  s.enabled = p.boolean("track");
-  s.threshold_mm = p.number("track_threshold_mm");
-  s.threshold_deg = p.number("track_threshold_deg");
-  s.min_inlier_fraction = p.number("track_min_inlier_fraction");
-  s.crop_margin_m = p.number("track_crop_margin_m");
+  s.enabled = p.boolean(names::param::kTrack);
+  s.threshold_mm = p.number(names::param::kTrackThresholdMm);
+  s.threshold_deg = p.number(names::param::kTrackThresholdDeg);
+  s.min_inlier_fraction = p.number(names::param::kTrackMinInlierFraction);
+  s.crop_margin_m = p.number(names::param::kTrackCropMarginM);
   if (s.threshold_mm < 0.0) throw std::invalid_argument("track_threshold_mm: must be >= 0");
   if (s.threshold_deg < 0.0) throw std::invalid_argument("track_threshold_deg: must be >= 0");
   if (s.min_inlier_fraction < 0.0 || s.min_inlier_fraction > 1.0) {

@@ -27,14 +27,14 @@ std::vector<std::string> split_outcomes(const std::string& text) {
 }  // namespace
 
 const projtour_param_desc kScriptedParams[6] = {
-    {"outcomes", "string", "succeeded",
+    {param::kOutcomes, "string", "succeeded",
      "comma-separated outcomes of successive runs; the last repeats"},
-    {"ticks", "integer", "1", "ticks each run lasts (the outcome comes on the last)"},
-    {"throw_on", "integer", "0", "run number whose first tick throws (0 = never)"},
-    {"ignore_cancel", "boolean", "false", "keep running after a cancel request"},
-    {"block_on", "integer", "0",
+    {param::kTicks, "integer", "1", "ticks each run lasts (the outcome comes on the last)"},
+    {param::kThrowOn, "integer", "0", "run number whose first tick throws (0 = never)"},
+    {param::kIgnoreCancel, "boolean", "false", "keep running after a cancel request"},
+    {param::kBlockOn, "integer", "0",
      "run number whose first tick never returns, as a hung driver call would (0 = never)"},
-    {"message", "string", "", "message attached to each outcome"},
+    {param::kMessage, "string", "", "message attached to each outcome"},
 };
 
 const std::vector<ParamSpec>& scripted_param_specs() {
@@ -54,21 +54,21 @@ const std::vector<ParamSpec>& scripted_param_specs() {
 }
 
 std::string validate_script(const Params& params) {
-  if (params.integer("ticks") < 1) return "ticks must be at least 1";
-  if (params.integer("throw_on") < 0) return "throw_on must be >= 0";
-  for (const auto& o : split_outcomes(params.string("outcomes"))) {
+  if (params.integer(param::kTicks) < 1) return "ticks must be at least 1";
+  if (params.integer(param::kThrowOn) < 0) return "throw_on must be >= 0";
+  for (const auto& o : split_outcomes(params.string(param::kOutcomes))) {
     if (o.empty()) return "outcomes has an empty entry";
   }
   return "";
 }
 
 ScriptedBehaviour::ScriptedBehaviour(const Params& params, const RunContext&)
-    : outcomes_(split_outcomes(params.string("outcomes"))),
-      ticks_(params.integer("ticks")),
-      throw_on_(params.integer("throw_on")),
-      block_on_(params.integer("block_on")),
-      ignore_cancel_(params.boolean("ignore_cancel")),
-      message_(params.string("message")) {
+    : outcomes_(split_outcomes(params.string(param::kOutcomes))),
+      ticks_(params.integer(param::kTicks)),
+      throw_on_(params.integer(param::kThrowOn)),
+      block_on_(params.integer(param::kBlockOn)),
+      ignore_cancel_(params.boolean(param::kIgnoreCancel)),
+      message_(params.string(param::kMessage)) {
   const std::string why = validate_script(params);
   if (!why.empty()) throw std::invalid_argument(why);
 }

@@ -10,6 +10,15 @@
 #include "projtour/plugin_abi.h"
 
 namespace projtour::testing {
+// Parameters: the descriptor's tables and every read of a value name them through these.
+namespace param {
+inline constexpr const char* kOutcomes = "outcomes";
+inline constexpr const char* kTicks = "ticks";
+inline constexpr const char* kThrowOn = "throw_on";
+inline constexpr const char* kIgnoreCancel = "ignore_cancel";
+inline constexpr const char* kBlockOn = "block_on";
+inline constexpr const char* kMessage = "message";
+}  // namespace param
 
 // The schema every scripted kind shares, as the plugin ABI gives it and as the executor reads it.
 extern const projtour_param_desc kScriptedParams[6];

@@ -13,6 +13,26 @@
 
 namespace projtour::testing {
 namespace {
+// Outcomes: the descriptor's outcome lists and every return site name them through these, so a
+// misspelt outcome does not compile.
+namespace outcome {
+inline constexpr const char* kSucceeded = "succeeded";
+inline constexpr const char* kUnreachable = "unreachable";
+inline constexpr const char* kBlocked = "blocked";
+inline constexpr const char* kTimeout = "timeout";
+inline constexpr const char* kLost = "lost";
+inline constexpr const char* kOutOfReach = "out_of_reach";
+inline constexpr const char* kReapproach = "reapproach";
+inline constexpr const char* kNoFrame = "no_frame";
+inline constexpr const char* kPoorFit = "poor_fit";
+inline constexpr const char* kNoTarget = "no_target";
+inline constexpr const char* kOffScreen = "off_screen";
+}  // namespace outcome
+// Parameters: the descriptor's tables and every read of a value name them through these.
+namespace param {
+inline constexpr const char* kLogSafeStops = "log_safe_stops";
+inline constexpr const char* kPublishConverged = "publish_converged";
+}  // namespace param
 
 int validate_scripted(const void* params, char* error, size_t error_size) {
   const std::string why = validate_script(*static_cast<const Params*>(params));
@@ -26,7 +46,7 @@ int validate_scripted(const void* params, char* error, size_t error_size) {
 class NullDevice {
  public:
   NullDevice(const char* kind, const Params& params, const RunContext& run)
-      : kind_(kind), log_(params.boolean("log_safe_stops")), run_dir_(run.run_dir) {}
+      : kind_(kind), log_(params.boolean(param::kLogSafeStops)), run_dir_(run.run_dir) {}
   void note_safe_stop() noexcept { note("safe_stop"); }
   // One line "<kind> <event>" per call.
   void note(const std::string& event) noexcept {
@@ -154,7 +174,7 @@ class TestProjector : public ProjectorDriver {
 class OdometryLocalization : public Service {
  public:
   OdometryLocalization(const Params& params, const RunContext&)
-      : publish_converged_(params.boolean("publish_converged")) {}
+      : publish_converged_(params.boolean(param::kPublishConverged)) {}
   void start(Context& ctx) override { update(ctx); }
   void update(Context& ctx) override {
     if (!ctx.run->drivers || !ctx.drivers().base) return;
@@ -170,23 +190,24 @@ class OdometryLocalization : public Service {
   bool publish_converged_;
 };
 
-const char* const kSucceeded[] = {"succeeded"};
+const char* const kSucceeded[] = {outcome::kSucceeded};
 const projtour_key_desc kLocalizationKeys[] = {writes(keys::kLocalization),
                                                writes(keys::kLocalizationConverged)};
-const char* const kNavigate[] = {"succeeded", "unreachable", "blocked", "timeout", "lost"};
-const char* const kRelocalize[] = {"succeeded", "lost"};
-const char* const kAim[] = {"succeeded", "out_of_reach", "reapproach"};
-const char* const kCapture[] = {"succeeded", "no_frame"};
-const char* const kAlign[] = {"succeeded", "poor_fit", "no_target"};
-const char* const kProject[] = {"succeeded", "off_screen"};
-const char* const kNext[] = {"succeeded"};
+const char* const kNavigate[] = {outcome::kSucceeded, outcome::kUnreachable, outcome::kBlocked,
+                                 outcome::kTimeout, outcome::kLost};
+const char* const kRelocalize[] = {outcome::kSucceeded, outcome::kLost};
+const char* const kAim[] = {outcome::kSucceeded, outcome::kOutOfReach, outcome::kReapproach};
+const char* const kCapture[] = {outcome::kSucceeded, outcome::kNoFrame};
+const char* const kAlign[] = {outcome::kSucceeded, outcome::kPoorFit, outcome::kNoTarget};
+const char* const kProject[] = {outcome::kSucceeded, outcome::kOffScreen};
+const char* const kNext[] = {outcome::kSucceeded};
 const projtour_param_desc kNullDeviceParams[] = {
-    {"log_safe_stops", "boolean", "true", "append each safe stop to run_dir/test_drivers.log"}};
+    {param::kLogSafeStops, "boolean", "true", "append each safe stop to run_dir/test_drivers.log"}};
 const projtour_param_desc kColourCameraParams[] = {
-    {"log_safe_stops", "boolean", "true",
+    {param::kLogSafeStops, "boolean", "true",
      "append each safe stop and each exposure setting to run_dir/test_drivers.log"}};
 const projtour_param_desc kLocalizationParams[] = {
-    {"publish_converged", "boolean", "true", "report the estimate as converged"}};
+    {param::kPublishConverged, "boolean", "true", "report the estimate as converged"}};
 
 const projtour_kind_desc kKinds[] = {
     behaviour_kind<ScriptedBehaviour>("scripted", "plays a script of outcomes", kScriptedParams,

@@ -5,6 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "../plugins/step_keys.hpp"
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/kinematics.hpp"
 #include "projtour/projection.hpp"
@@ -256,4 +257,52 @@ TEST(Next, StowsTheHeadAndBlanksTheProjector) {
   ASSERT_EQ(rig.pan_tilt->commands.size(), 1u);
   EXPECT_NEAR(rig.pan_tilt->commands[0].tilt_rad, deg_to_rad(10), 1e-12);  // the stow angles
   EXPECT_TRUE(rig.pan_tilt->reached());
+}
+
+// ---- declared keys ---------------------------------------------------------------------------
+
+// Each step runs over a blackboard on which every key it does not declare holds a value of a
+// type no step uses (step_keys.hpp): reading or writing such a key throws, naming it. A step that
+// succeeds has written each key it declares writing.
+namespace {
+
+void expect_only_declared_keys(Rig& rig, const std::string& kind) {
+  const test::StepKeys step_keys(PROJTOUR_PLUGIN_BUILD_DIR, kind);
+  ASSERT_FALSE(step_keys.poisoned().empty());
+  step_keys.poison(rig.blackboard);
+  const std::uint64_t writes_before = rig.blackboard.writes();
+  auto step = rig.make(kind);
+  Outcome out;
+  ASSERT_NO_THROW(out = rig.run(*step)) << kind;
+  ASSERT_EQ(out.name, "succeeded") << out.message;
+  EXPECT_EQ(step_keys.written_since(rig.blackboard, writes_before), step_keys.declared_writes());
+}
+
+// The capture align fitted: at the head's angles now, the base at kBase.
+void put_capture(Rig& rig) {
+  CapturedFrame capture;
+  capture.joints = rig.pan_tilt->measured_;
+  capture.base_estimate = estimate_at(kBase);
+  rig.blackboard.set(keys::kCapture, std::move(capture));
+}
+
+}  // namespace
+
+TEST(StepKeys, AimAtTheAlignedPoseUsesOnlyTheKeysItDeclares) {
+  Rig rig;
+  rig.blackboard.set(keys::kLocalization, estimate_at(kBase));
+  aim_and_align(rig);
+  put_capture(rig);  // fitted this capture: aim reads the calibration too
+  expect_only_declared_keys(rig, "aim");
+}
+
+TEST(StepKeys, ProjectUsesOnlyTheKeysItDeclares) {
+  Rig rig;
+  aim_and_align(rig);
+  expect_only_declared_keys(rig, "project");
+}
+
+TEST(StepKeys, NextUsesNoKey) {
+  Rig rig;
+  expect_only_declared_keys(rig, "next");
 }

@@ -15,6 +15,26 @@
 
 namespace projtour::align {
 namespace {
+// Outcomes: the descriptor's outcome lists and every return site name them through these, so a
+// misspelt outcome does not compile.
+namespace outcome {
+inline constexpr const char* kSucceeded = "succeeded";
+inline constexpr const char* kPoorFit = "poor_fit";
+inline constexpr const char* kNoTarget = "no_target";
+}  // namespace outcome
+// Parameters: the descriptor's tables and every read of a value name them through these.
+namespace param {
+inline constexpr const char* kMethod = "method";
+inline constexpr const char* kModelSpacingM = "model_spacing_m";
+inline constexpr const char* kCropMarginM = "crop_margin_m";
+inline constexpr const char* kMinPoints = "min_points";
+inline constexpr const char* kMinInlierFraction = "min_inlier_fraction";
+inline constexpr const char* kMaxRmseMm = "max_rmse_mm";
+inline constexpr const char* kInlierDistanceM = "inlier_distance_m";
+inline constexpr const char* kPclMaxIterations = "pcl_max_iterations";
+inline constexpr const char* kPclMaxCorrespondenceM = "pcl_max_correspondence_m";
+inline constexpr const char* kDraw = "draw";
+}  // namespace param
 
 enum class Method { projective_icp, pcl_icp, pcl_gicp };
 
@@ -42,20 +62,20 @@ struct Settings {
 // Throws std::invalid_argument naming the parameter; the loader and the constructor share it.
 Settings read_settings(const Params& p) {
   Settings s;
-  s.method_name = p.string("method");
+  s.method_name = p.string(param::kMethod);
   if (!parse_method(s.method_name, s.method)) {
     throw std::invalid_argument("method: \"" + s.method_name +
                                 "\" is not one of projective_icp, pcl_icp, pcl_gicp");
   }
-  s.model_spacing_m = p.number("model_spacing_m");
-  s.crop_margin_m = p.number("crop_margin_m");
-  s.min_points = p.integer("min_points");
-  s.min_inlier_fraction = p.number("min_inlier_fraction");
-  s.max_rmse_mm = p.number("max_rmse_mm");
-  s.inlier_distance_m = p.number("inlier_distance_m");
-  s.pcl_max_iterations = p.integer("pcl_max_iterations");
-  s.pcl_max_correspondence_m = p.number("pcl_max_correspondence_m");
-  s.draw = p.boolean("draw");
+  s.model_spacing_m = p.number(param::kModelSpacingM);
+  s.crop_margin_m = p.number(param::kCropMarginM);
+  s.min_points = p.integer(param::kMinPoints);
+  s.min_inlier_fraction = p.number(param::kMinInlierFraction);
+  s.max_rmse_mm = p.number(param::kMaxRmseMm);
+  s.inlier_distance_m = p.number(param::kInlierDistanceM);
+  s.pcl_max_iterations = p.integer(param::kPclMaxIterations);
+  s.pcl_max_correspondence_m = p.number(param::kPclMaxCorrespondenceM);
+  s.draw = p.boolean(param::kDraw);
   auto positive = [](double v, const char* name) {
     if (!(v > 0.0)) throw std::invalid_argument(std::string(name) + ": must be > 0");
   };
@@ -144,7 +164,7 @@ class Align : public Behaviour {
           << model->bounding_radius_m() + settings_.crop_margin_m
           << " m of the expected target (at least " << settings_.min_points << " needed)";
       if (settings_.draw) draw(ctx, frame, scene, *model, T_camera_model_guess, nullptr);
-      return Outcome{"no_target", why.str()};
+      return Outcome{outcome::kNoTarget, why.str()};
     }
 
     RegistrationResult result = register_scene(model, scene, T_camera_model_start);
@@ -166,12 +186,12 @@ class Align : public Behaviour {
           << " (gate: inlier fraction >= " << settings_.min_inlier_fraction
           << ", RMSE <= " << settings_.max_rmse_mm << " mm)";
       if (!result.converged) why << "; too few correspondences";
-      return Outcome{"poor_fit", why.str()};
+      return Outcome{outcome::kPoorFit, why.str()};
     }
     out.T_camera_model = result.T_camera_model;
     last_fit_ = LastFit{ctx.target->id, out.joints, T_map_camera};
     bb.set(keys::kAlign, std::move(out));
-    return Outcome{"succeeded", format_quality(result)};
+    return Outcome{outcome::kSucceeded, format_quality(result)};
   }
 
  private:
@@ -220,23 +240,24 @@ class Align : public Behaviour {
 };
 
 const projtour_param_desc kAlignParams[] = {
-    {"method", "string", "projective_icp", "projective_icp | pcl_icp | pcl_gicp"},
-    {"model_spacing_m", "number", kDefaultModelSpacingM,
+    {param::kMethod, "string", "projective_icp", "projective_icp | pcl_icp | pcl_gicp"},
+    {param::kModelSpacingM, "number", kDefaultModelSpacingM,
      "spacing of the points resampled on the model"},
-    {"crop_margin_m", "number", "0.1",
+    {param::kCropMarginM, "number", "0.1",
      "the frame is cropped to the model's bounding sphere plus this around the guess"},
-    {"min_points", "integer", "500", "fewer points in the crop: no_target"},
-    {"min_inlier_fraction", "number", "0.4",
+    {param::kMinPoints, "integer", "500", "fewer points in the crop: no_target"},
+    {param::kMinInlierFraction, "number", "0.4",
      "quality gate: less is a poor_fit (verify's colour camera decides whether the content lands; "
      "this refuses only what is plainly not the target, a rough scan fitting at about 0.5)"},
-    {"max_rmse_mm", "number", "5.0", "quality gate: more is a poor_fit"},
-    {"inlier_distance_m", "number", "0.006",
+    {param::kMaxRmseMm, "number", "5.0", "quality gate: more is a poor_fit"},
+    {param::kInlierDistanceM, "number", "0.006",
      "a visible model point within this of its scene point is an inlier"},
-    {"pcl_max_iterations", "integer", "50", "pcl_icp / pcl_gicp: iteration limit"},
-    {"pcl_max_correspondence_m", "number", "0.05", "pcl_icp / pcl_gicp: correspondence distance"},
-    {"draw", "boolean", "true", "write alignment.png into the target's folder"},
+    {param::kPclMaxIterations, "integer", "50", "pcl_icp / pcl_gicp: iteration limit"},
+    {param::kPclMaxCorrespondenceM, "number", "0.05",
+     "pcl_icp / pcl_gicp: correspondence distance"},
+    {param::kDraw, "boolean", "true", "write alignment.png into the target's folder"},
 };
-const char* const kAlignOutcomes[] = {"succeeded", "poor_fit", "no_target"};
+const char* const kAlignOutcomes[] = {outcome::kSucceeded, outcome::kPoorFit, outcome::kNoTarget};
 const projtour_key_desc kAlignKeys[] = {reads(keys::kCapture), reads_if_present(keys::kAlign),
                                         writes(keys::kAlign)};
 const projtour_kind_desc kKinds[] = {with_keys(

@@ -10,6 +10,17 @@
 
 namespace projtour::capture {
 namespace {
+// Outcomes: the descriptor's outcome lists and every return site name them through these, so a
+// misspelt outcome does not compile.
+namespace outcome {
+inline constexpr const char* kSucceeded = "succeeded";
+inline constexpr const char* kNoFrame = "no_frame";
+}  // namespace outcome
+// Parameters: the descriptor's tables and every read of a value name them through these.
+namespace param {
+inline constexpr const char* kAverageFrames = "average_frames";
+inline constexpr const char* kMaxWaitS = "max_wait_s";
+}  // namespace param
 
 struct Settings {
   long long average_frames = 1;
@@ -18,8 +29,8 @@ struct Settings {
 
 Settings read_settings(const Params& p) {
   Settings s;
-  s.average_frames = p.integer("average_frames");
-  s.max_wait_s = p.number("max_wait_s");
+  s.average_frames = p.integer(param::kAverageFrames);
+  s.max_wait_s = p.number(param::kMaxWaitS);
   if (s.average_frames < 1 || s.average_frames > 100) {
     throw std::invalid_argument("average_frames: must lie in [1, 100]");
   }
@@ -75,13 +86,13 @@ class Capture : public Behaviour {
       what << frames_.size() << " frame(s), " << captured.frame.valid_count() << " readings";
       ctx.blackboard().set(keys::kCapture, std::move(captured));
       frames_.clear();
-      return Outcome{"succeeded", what.str()};
+      return Outcome{outcome::kSucceeded, what.str()};
     }
     if (ctx.state_elapsed_s() - started_s_ > settings_.max_wait_s) {
       std::ostringstream why;
       why << "got " << frames_.size() << " of " << settings_.average_frames << " frame(s) in "
           << settings_.max_wait_s << " s (" << dropped_ << " dropped)";
-      return Outcome{"no_frame", why.str()};
+      return Outcome{outcome::kNoFrame, why.str()};
     }
     return std::nullopt;
   }
@@ -94,10 +105,10 @@ class Capture : public Behaviour {
 };
 
 const projtour_param_desc kParams[] = {
-    {"average_frames", "integer", "1", "frames averaged pixel by pixel into one"},
-    {"max_wait_s", "number", "2.0", "no_frame when the frames have not arrived by then"},
+    {param::kAverageFrames, "integer", "1", "frames averaged pixel by pixel into one"},
+    {param::kMaxWaitS, "number", "2.0", "no_frame when the frames have not arrived by then"},
 };
-const char* const kOutcomes[] = {"succeeded", "no_frame"};
+const char* const kOutcomes[] = {outcome::kSucceeded, outcome::kNoFrame};
 const projtour_key_desc kKeys[] = {reads(keys::kLocalization), writes(keys::kCapture)};
 const projtour_kind_desc kKinds[] = {with_keys(
     behaviour_kind<Capture>("capture",
