@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "cli_module.hpp"
-#include "cli_options.hpp"
+#include "projtour_cli/options.hpp"
 #include "projtour_executor/plugin_listing.hpp"
 #include "projtour_executor/runner.hpp"
 

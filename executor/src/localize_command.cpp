@@ -24,10 +24,10 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "cli_options.hpp"
 #include "projtour/localizer.hpp"
 #include "projtour/occupancy_map.hpp"
 #include "projtour/path_planner.hpp"
+#include "projtour_cli/options.hpp"
 
 namespace projtour {
 

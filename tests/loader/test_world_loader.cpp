@@ -1,6 +1,10 @@
 // World files of a dry run: values, defaults, the checks against the mission, and diagnostics.
+#include <sstream>
+#include <stdexcept>
 #include "loader_fixture.hpp"
+
 #include "projtour/mission_loader.hpp"
+#include "projtour/world_faults.hpp"
 
 namespace projtour::test {
 namespace {
@@ -272,6 +276,43 @@ TEST_F(WorldLoader, TruePoseUnknownKeySuggests) {
   EXPECT_THAT(world_errors(replace(kWorld, "yaw_deg: 177", "yaw_deg: 177, pich_deg: 2")),
               ElementsAre(dir + "/w.yaml:4:52: targets.rabbit.pose.pich_deg: unknown key "
                                 "\"pich_deg\"; did you mean \"pitch_deg\"?"));
+}
+
+// The one table of faults (world_faults.hpp): each type written with every number at the table's
+// default loads as written (the defaults are within the loader's bounds), and fault_number gives
+// the same default when the number is left out, as the simulator reads it.
+TEST_F(WorldLoader, FaultTableDefaultsLoadAsWrittenAndAsLeftOut) {
+  ASSERT_EQ(fault_kinds().size(), 12u);
+  for (const FaultKindSpec& kind : fault_kinds()) {
+    std::ostringstream text;
+    text.precision(17);
+    text << "faults:\n  - {target: rabbit, type: " << kind.type;
+    for (const FaultNumberSpec& n : kind.numbers) text << ", " << n.key << ": " << n.default_value;
+    text << "}\n";
+    Diagnostics diag;
+    const auto world = load_world(write("w.yaml", text.str()), mission, diag);
+    ASSERT_TRUE(world) << kind.type << ": " << diag.format();
+    ASSERT_EQ(world->faults.size(), 1u);
+    const FaultSpec& written = world->faults[0];
+    EXPECT_EQ(written.type, kind.type);
+    EXPECT_EQ(written.values.size(), kind.numbers.size()) << kind.type;
+    FaultSpec left_out;
+    left_out.type = kind.type;
+    for (const FaultNumberSpec& n : kind.numbers) {
+      EXPECT_EQ(written.values.at(n.key), n.default_value) << kind.type << "." << n.key;
+      EXPECT_EQ(fault_number(left_out, n.key), n.default_value) << kind.type << "." << n.key;
+      EXPECT_EQ(fault_default(kind.type, n.key), n.default_value) << kind.type << "." << n.key;
+    }
+  }
+}
+
+// A number the table does not have is the simulator's mistake, never silently a default.
+TEST_F(WorldLoader, FaultTableRefusesANumberItDoesNotHave) {
+  EXPECT_THROW(fault_default("person_standing", "speed_mps"), std::logic_error);
+  EXPECT_THROW(fault_default("no_such_fault", "after_s"), std::logic_error);
+  EXPECT_EQ(find_fault_kind("no_such_fault"), nullptr);
+  ASSERT_NE(find_fault_kind("pole"), nullptr);
+  EXPECT_EQ(find_fault_kind("pole")->numbers.size(), 3u);
 }
 
 }  // namespace

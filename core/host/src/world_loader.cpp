@@ -1,8 +1,9 @@
 // The world file of a dry run (format documented in examples/worlds/atrium_faults.yaml).
-#include <map>
+#include <algorithm>
 
 #include "loader_fields.hpp"
 #include "projtour/mission_loader.hpp"
+#include "projtour/world_faults.hpp"
 
 namespace projtour {
 
@@ -11,48 +12,24 @@ namespace {
 using loader::read_number;
 using loader::Sign;
 
-const std::vector<std::string> kFaultTypes = {
-    "frame_dropout", "target_missing",    "occluder",          "blocked_path",
-    "kidnap",        "camera_disconnect", "projector_failure", "target_nudge",
-    "pole",          "daylight",          "person_crossing",   "person_standing"};
+// The fault types in the table's order: the order an unknown type's diagnostic lists them in.
+std::vector<std::string> fault_type_names() {
+  std::vector<std::string> names;
+  for (const FaultKindSpec& kind : fault_kinds()) names.push_back(kind.type);
+  return names;
+}
 
-// Every fault type's numbers, by name and sign, as the simulator reads them: any other key is an
-// error (a misspelt one would silently leave the fault at its default).
-struct FaultNumber {
-  const char* key;
-  Sign sign;
-};
-const std::map<std::string, std::vector<FaultNumber>> kCheckedFaults = {
-    {"frame_dropout", {{"fraction", Sign::non_negative}}},
-    {"target_missing", {}},
-    {"occluder",
-     {{"distance_m", Sign::positive}, {"width_m", Sign::positive}, {"height_m", Sign::positive}}},
-    {"blocked_path", {{"size_m", Sign::positive}}},
-    {"kidnap", {{"distance_m", Sign::positive}}},
-    {"camera_disconnect", {{"after_frames", Sign::non_negative}}},
-    {"projector_failure", {{"after_shows", Sign::non_negative}}},
-    {"target_nudge",
-     {{"after_s", Sign::non_negative},
-      {"distance_m", Sign::non_negative},
-      {"direction_deg", Sign::any},
-      {"dx_m", Sign::any},
-      {"dy_m", Sign::any},
-      {"yaw_deg", Sign::any}}},
-    {"pole",
-     {{"distance_m", Sign::positive}, {"diameter_m", Sign::positive}, {"offset_m", Sign::any}}},
-    {"daylight", {{"lux", Sign::positive}}},
-    {"person_crossing",
-     {{"after_s", Sign::non_negative},
-      {"speed_mps", Sign::positive},
-      {"times", Sign::positive},
-      {"every_s", Sign::positive},
-      {"distance_m", Sign::positive}}},
-    {"person_standing",
-     {{"after_s", Sign::non_negative},
-      {"for_s", Sign::positive},
-      {"distance_m", Sign::positive},
-      {"offset_m", Sign::any}}},
-};
+Sign loader_sign(FaultNumberSign sign) {
+  switch (sign) {
+    case FaultNumberSign::positive:
+      return Sign::positive;
+    case FaultNumberSign::non_negative:
+      return Sign::non_negative;
+    case FaultNumberSign::any:
+      break;
+  }
+  return Sign::any;
+}
 
 std::vector<std::string> target_ids(const MissionSpec& mission) {
   std::vector<std::string> ids;
@@ -131,16 +108,18 @@ void read_faults(const YamlField& f, const MissionSpec& mission, Diagnostics& di
     } else {
       ok = false;
     }
-    if (auto type = entry["type"].as_enum(kFaultTypes)) {
+    if (auto type = entry["type"].as_enum(fault_type_names())) {
       fault.type = *type;
     } else {
       ok = false;
     }
     const std::size_t errors_before = diag.error_count();
-    const auto checked = kCheckedFaults.find(fault.type);
-    if (checked != kCheckedFaults.end()) {
+    // Every fault type's numbers, by name and sign, as the simulator reads them: any other key
+    // is an error (a misspelt one would silently leave the fault at its default).
+    const FaultKindSpec* checked = find_fault_kind(fault.type);
+    if (checked != nullptr) {
       std::vector<std::string> allowed = {"target", "type"};
-      for (const FaultNumber& n : checked->second) allowed.push_back(n.key);
+      for (const FaultNumberSpec& n : checked->numbers) allowed.push_back(n.key);
       entry.check_keys(allowed);
     }
     for (const auto& kv : entry.node()) {
@@ -157,10 +136,10 @@ void read_faults(const YamlField& f, const MissionSpec& mission, Diagnostics& di
         ok = false;
       }
     }
-    if (checked != kCheckedFaults.end()) {
-      for (const FaultNumber& n : checked->second) {
+    if (checked != nullptr) {
+      for (const FaultNumberSpec& n : checked->numbers) {
         // Only numbers are checked for their sign: a non-number has had its diagnostic.
-        if (fault.values.count(n.key)) read_number(entry[n.key], false, n.sign);
+        if (fault.values.count(n.key)) read_number(entry[n.key], false, loader_sign(n.sign));
       }
     }
     ok &= diag.error_count() == errors_before;

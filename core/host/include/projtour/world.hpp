@@ -16,12 +16,8 @@ namespace projtour {
 // Faults a dry run injects for one target (world file).
 struct FaultSpec {
   std::string target;  // target id
-  std::string type;    // frame_dropout | target_missing | occluder | blocked_path | kidnap |
-                       // camera_disconnect | projector_failure | target_nudge | pole |
-                       // daylight | person_crossing | person_standing
-                       // (pole's numbers are checked when loaded: distance_m > 0,
-                       // diameter_m > 0, offset_m; all documented in atrium_faults.yaml)
-  std::map<std::string, double> values;  // type-specific numbers (fraction, distance_m, ...)
+  std::string type;    // one of world_faults.hpp's table, which says its numbers and defaults
+  std::map<std::string, double> values;  // the numbers written (fault_number() adds defaults)
   SourceMark mark;
 };
 

@@ -6,48 +6,15 @@
 //
 // World-file keys it reads (WorldSpec, see examples/worlds/atrium_faults.yaml): targets (true
 // poses), target_offset, noise (odometry, laser, encoders, depth), model_error, calibration_error
-// and faults. Fault numbers, all optional:
-//   frame_dropout      fraction (0.5)        share of depth frames delivered empty (the colour
-//                                            camera's frames all arrive)
-//   target_missing     -                     the target is not there at all
-//   occluder           distance_m (0.5), width_m (0.4), height_m (0.4)
-//                      a hanging board (above the laser plane) that far in front of the target
-//   blocked_path       size_m (0.6)          a box on the target's stand-off pose (laser sees it)
-//   kidnap             distance_m (1.0)      the true pose jumps when the robot arrives
-//   camera_disconnect  after_frames (0)      grab() throws after that many frames, and
-//                                            grab_colour() after that many colour frames
-//   projector_failure  after_shows (0)       show() throws after that many shows
-//   target_nudge       after_s (1.0), distance_m (0.02), direction_deg (90), yaw_deg (0)
-//                      the true target moves once, after_s seconds after the projector first
-//                      lit it (so during the dwell): shifted that far in the map along
-//                      direction_deg (counter-clockwise from the map's +x; dx_m/dy_m instead
-//                      give the shift directly) and turned yaw_deg about its own z axis. The
-//                      camera and the referee see the moved target from then on.
-//   pole               distance_m (0.6), diameter_m (0.05), offset_m (0)
-//                      a vertical pole (16-sided prism) from the floor to 2 m, that far in
-//                      front of the target toward its stand-off pose and offset_m sideways
-//                      (positive = left seen from the target): the cameras see it, it takes
-//                      the projector's light and shadows what is behind, and the laser and the
-//                      bumper meet it (unless it stands on the stand-off pose itself, where it
-//                      would be blocked_path: then only the cameras and the light meet it).
-//   daylight           lux (20000)
-//                      sunlight through a window floods the target's surroundings: the colour
-//                      camera's room light is that bright while the target is the active one
-//                      (the structured light and the verification dots drown in it).
-//   person_crossing    after_s (1.0), speed_mps (1.0), distance_m (0.45), times (1), every_s (8)
-//                      after_s after the projector first lit the target, a person walks across
-//                      the line from the target to its stand-off pose, distance_m in front of
-//                      the target, from 2 m to one side to 2 m to the other (then gone); again
-//                      `times` times every_s apart, each the other way.
-//   person_standing    after_s (1.0), for_s (10), distance_m (0.5), speed_mps (1.0)
-//                      a person walks in from 2.5 m to the side, stands for_s distance_m in
-//                      front of the target (in the beam), and walks off the way they came.
+// and faults. What each fault does, its numbers and their defaults are one table, core/host's
+// projtour/world_faults.hpp (documented for users in examples/worlds/atrium_faults.yaml); the
+// simulator's side of them is faults/sim_faults.hpp.
 // Faults other than the static obstacles (target_missing, occluder, blocked_path, pole) act while
 // their target is the one the robot is at: the nearest target within its stand-off + 1.5 m.
 //
 // The building (world keys objects, clutter, supports, map_error, glass, people; documented in
-// examples/worlds/busy_building.yaml; see building.hpp): its walls are the map's edited by the
-// map error, glass is in them for the bumper and not for the laser or the cameras, and the
+// examples/worlds/busy_building.yaml; see bodies/ and people/): its walls are the map's edited by
+// the map error, glass is in them for the bumper and not for the laser or the cameras, and the
 // unmapped objects and the people are met by the laser, the cameras, the light and the bumper
 // (the bumper at the robot's radius). The referee records the robot's clearance to each object
 // and person and whether lit light falls on anyone (BuildingTruth).

@@ -10,11 +10,11 @@
 #include <iostream>
 #include <thread>
 
-#include "cli_options.hpp"
 #include "projtour/diagnostics.hpp"
 #include "projtour/mission_loader.hpp"
 #include "projtour/occupancy_map.hpp"
 #include "projtour/world.hpp"
+#include "projtour_cli/options.hpp"
 #include "projtour_ros2/dds.hpp"
 #include "projtour_ros2/messages.hpp"
 #include "projtour_sim/sim_world.hpp"

@@ -11,7 +11,7 @@
 
 #include "projtour/geometry.hpp"
 #include "projtour/run_image.hpp"
-#include "sim_internal.hpp"
+#include "referee/projection_truth.hpp"
 
 namespace projtour::sim {
 namespace {
