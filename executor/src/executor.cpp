@@ -18,20 +18,6 @@ namespace projtour {
 
 namespace {
 constexpr std::size_t kMaxTransitionsPerTick = 1000;
-
-// "HH:MM:SS" (or "HH:MM") of seconds after midnight, wrapped to the day.
-std::string clock_text(double day_s, bool seconds = true) {
-  // 24:00 stays 24:00 (a window's end); later times wrap to the next day.
-  long total = static_cast<long>(std::floor(day_s));
-  if (total > 86400) total %= 86400;
-  char buf[64];
-  if (seconds) {
-    std::snprintf(buf, sizeof buf, "%02ld:%02ld:%02ld", total / 3600, total / 60 % 60, total % 60);
-  } else {
-    std::snprintf(buf, sizeof buf, "%02ld:%02ld", total / 3600, total / 60 % 60);
-  }
-  return buf;
-}
 }  // namespace
 
 const char* to_string(TourOutcome outcome) {
@@ -211,7 +197,7 @@ void Executor::start_at(const std::string& state_path, std::size_t target_index)
   for (std::size_t i = 0; i + 1 < chain.size(); ++i) {
     const StateSpec* s = chain[i];
     if (s->for_each_target) {
-      open_visit(*s, target_index);
+      start_target_visit(*s, target_index);
       continue;
     }
     active_.push_back(s);
@@ -247,7 +233,7 @@ void Executor::process_requests() {
     if (request.enter != nullptr) {
       enter(*request.enter);
     } else if (request.leaf_end) {
-      finish_leaf(std::move(*request.leaf_end));
+      follow_leaf_outcome(std::move(*request.leaf_end));
     }
   }
   requests_.clear();
@@ -262,11 +248,11 @@ void Executor::enter(const StateSpec& state) {
     case StateType::final_state:
       emit(EventType::enter, state);
       emit(EventType::exit, state);
-      complete_composite(*state.parent);
+      exit_composite(*state.parent);
       return;
     case StateType::composite:
       if (state.for_each_target) {
-        begin_visit(state);
+        visit_next_target(state);
         return;
       }
       active_.push_back(&state);
@@ -290,228 +276,8 @@ void Executor::enter_leaf(const StateSpec& state) {
   }
 }
 
-std::optional<std::size_t> Executor::choose_next_target(const StateSpec& for_each) {
-  const std::size_t n = target_count();
-  if (first_target_) {
-    const std::size_t first = *first_target_;
-    first_target_.reset();
-    if (first < n && done_.count(first) == 0) return first;
-  }
-  // Deferred targets wait until every other one has had its visit.
-  std::vector<std::size_t> remaining, deferred;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (done_.count(i) != 0) continue;
-    (deferred_.count(i) != 0 ? deferred : remaining).push_back(i);
-  }
-  if (remaining.empty()) remaining = deferred;
-  if (remaining.empty()) return std::nullopt;
-  const std::string& order = for_each.order.empty() ? run_.mission->order : for_each.order;
-  if (order != "nearest") return remaining.front();
-  const PoseEstimate2D* estimate = run_.blackboard->find(keys::kLocalization);
-  if (estimate == nullptr) {
-    if (run_.log != nullptr) {
-      run_.log->warning("order nearest: no localization estimate yet; mission order");
-    }
-    return remaining.front();
-  }
-  return nearest_target(*estimate, remaining);
-}
-
-// The remaining target with the shortest path on the map (grid inflated by the robot's radius)
-// from the estimate to its stand-off pose; ties and targets without a path keep mission order,
-// so navigate reports the unreachable ones. A run without a map ranks by straight line.
-std::size_t Executor::nearest_target(const PoseEstimate2D& estimate,
-                                     const std::vector<std::size_t>& remaining) {
-  const Eigen::Vector2d here(estimate.mean.x_m, estimate.mean.y_m);
-  if (run_.map && !planner_) {
-    planner_ = std::make_unique<PathPlanner>(*run_.map, run_.mission->robot.base.radius_m);
-  }
-  std::size_t chosen = remaining.front();
-  double best_m = std::numeric_limits<double>::infinity();
-  for (std::size_t i : remaining) {
-    const Pose2D goal = standoff_pose(run_.mission->targets[i]);
-    const Eigen::Vector2d to(goal.x_m, goal.y_m);
-    const double length_m =
-        planner_
-            ? planner_->path_length_m(here, to).value_or(std::numeric_limits<double>::infinity())
-            : (to - here).norm();
-    if (length_m < best_m) {
-      best_m = length_m;
-      chosen = i;
-    }
-  }
-  return chosen;
-}
-
-void Executor::open_visit(const StateSpec& for_each, std::size_t index) {
-  current_target_ = index;
-  visit_state_ = &for_each;
-  retries_used_.clear();
-  visit_projected_ = false;
-  run_.blackboard->clear_visit();
-  record_ = TargetRecord{};
-  record_.index = index;
-  record_.id = run_.mission->targets[index].id;
-  record_.round = options_.schedule.written ? round_ : 0;
-  visit_target_.reset();
-  if (index < options_.target_times.size() && options_.target_times[index].content.size() > 1) {
-    // Counted from the records, so a resumed run goes on with the item it would have shown.
-    const TargetTimes& times = options_.target_times[index];
-    const auto shown = std::count_if(records_.begin(), records_.end(), [&](const TargetRecord& r) {
-      return r.index == index && r.outcome != "outside_hours";
-    });
-    const std::size_t k =
-        static_cast<std::size_t>(times.per_round ? round_ - 1 : shown) % times.content.size();
-    visit_target_ = run_.mission->targets[index];
-    visit_target_->content = times.content[k];
-    record_.content = times.content[k].filename().string();
-    record_.content_index = static_cast<int>(k);
-  }
-  if (!run_.run_dir.empty()) {
-    try {
-      make_run_directory(run_.run_dir / "targets" / record_.id);
-    } catch (const std::exception& e) {
-      if (run_.log != nullptr) run_.log->warning(e.what());
-    }
-  }
-  active_.push_back(&for_each);
-  emit(EventType::enter, for_each);
-}
-
-void Executor::begin_visit(const StateSpec& for_each) {
-  if (options_.schedule.written && !round_open_) {
-    round_open_ = true;
-    emit_round(for_each, "begin", "at " + clock_text(time_of_day_s(clock_.now_s())));
-  }
-  // Each pass records a target as done this round, so the loop ends within target_count().
-  for (;;) {
-    const auto next = choose_next_target(for_each);
-    if (!next) {
-      end_round(for_each);
-      return;
-    }
-    if (const std::string why = outside_hours(*next); !why.empty()) {
-      pass_over(for_each, *next, why);
-      continue;
-    }
-    open_visit(for_each, *next);
-    request_enter(*for_each.child(for_each.initial));
-    return;
-  }
-}
-
-std::string Executor::outside_hours(std::size_t index) const {
-  if (index >= options_.target_times.size()) return "";
-  const auto& hours = options_.target_times[index].hours;
-  if (hours.empty()) return "";
-  const double now = std::fmod(time_of_day_s(clock_.now_s()), 86400.0);
-  std::string windows;
-  for (const TimeWindow& w : hours) {
-    if (now >= w.begin_s && now < w.end_s) return "";
-    windows += (windows.empty() ? "" : ", ") + clock_text(w.begin_s, false) + "-" +
-               clock_text(w.end_s, false);
-  }
-  return "outside its hours (" + windows + ") at " + clock_text(now);
-}
-
-void Executor::pass_over(const StateSpec& for_each, std::size_t index, const std::string& reason) {
-  TargetRecord r;
-  r.index = index;
-  r.id = run_.mission->targets[index].id;
-  r.outcome = "outside_hours";
-  r.reason = reason;
-  r.round = options_.schedule.written ? round_ : 0;
-  records_.push_back(std::move(r));
-  done_.insert(index);
-  ExecutorEvent e;
-  e.t_s = clock_.now_s();
-  e.type = EventType::outcome;
-  e.state = for_each.path;
-  e.target = records_.back().id;
-  e.outcome = "outside_hours";
-  e.message = reason;
-  publish(e);
-  for (ExecutorObserver* o : observers_) o->on_target_done(records_.back());
-}
-
-void Executor::emit_round(const StateSpec& for_each, const std::string& outcome,
-                          const std::string& message) {
-  ExecutorEvent e;
-  e.t_s = clock_.now_s();
-  e.type = EventType::round;
-  e.state = for_each.path;
-  e.outcome = outcome;
-  e.message = message;
-  publish(e);
-}
-
-// The robot stays where the round left it for pause_s, or until a target's window opens when
-// the round found every one closed (a pause of 0 would otherwise spin round after round).
-void Executor::end_round(const StateSpec& for_each) {
-  const MissionSchedule& schedule = options_.schedule;
-  if (!schedule.written) {
-    composite_done(for_each);
-    return;
-  }
-  const double now_s = clock_.now_s();
-  std::map<std::string, int> counts;
-  bool visited = false;
-  for (const TargetRecord& r : records_) {
-    if (r.round != round_) continue;
-    ++counts[r.outcome];
-    visited |= r.outcome != "outside_hours";
-  }
-  std::string tally;
-  for (const auto& [outcome, n] : counts) {
-    tally += (tally.empty() ? "" : ", ") + std::to_string(n) + " " + outcome;
-  }
-  double next_s = now_s + schedule.pause_s;
-  std::string last;
-  if (!visited) {
-    // The earliest window opening after now, today.
-    const double day_s = std::fmod(time_of_day_s(now_s), 86400.0);
-    std::optional<double> opens_s;
-    for (const TargetTimes& t : options_.target_times) {
-      for (const TimeWindow& w : t.hours) {
-        if (w.begin_s > day_s && (!opens_s || w.begin_s < *opens_s)) opens_s = w.begin_s;
-      }
-    }
-    if (opens_s) {
-      next_s = std::max(next_s, now_s + (*opens_s - day_s));
-    } else {
-      last = "no target's hours open again today";
-    }
-  }
-  if (last.empty() && schedule.rounds && round_ >= *schedule.rounds) {
-    last = "the last of " + std::to_string(*schedule.rounds) + " rounds";
-  } else if (last.empty() && schedule.until_s && time_of_day_s(next_s) >= *schedule.until_s) {
-    last = "the next would begin at " + clock_text(time_of_day_s(next_s)) + ", not before " +
-           clock_text(*schedule.until_s, false);
-  }
-  emit_round(for_each, "end",
-             "at " + clock_text(time_of_day_s(now_s)) + ": " + (tally.empty() ? "nothing" : tally) +
-                 "; " +
-                 (last.empty() ? "the next begins at " + clock_text(time_of_day_s(next_s)) : last));
-  round_open_ = false;
-  if (!last.empty()) {
-    composite_done(for_each);
-    return;
-  }
-  waiting_for_each_ = &for_each;
-  next_round_s_ = next_s;
-}
-
-void Executor::begin_round() {
-  const StateSpec* for_each = waiting_for_each_;
-  waiting_for_each_ = nullptr;
-  ++round_;
-  done_.clear();
-  deferred_.clear();
-  begin_visit(*for_each);
-}
-
 // Stops the active leaf and pops it; measurements of the visit are taken here.
-void Executor::leave_leaf(const Outcome& outcome) {
+void Executor::stop_leaf(const Outcome& outcome) {
   const StateSpec* leaf = active_.back();
   emit(EventType::outcome, *leaf, outcome.name, outcome.message);
   try {
@@ -526,7 +292,7 @@ void Executor::leave_leaf(const Outcome& outcome) {
   leaf_behaviour_ = nullptr;
 }
 
-void Executor::finish_leaf(Outcome outcome) {
+void Executor::follow_leaf_outcome(Outcome outcome) {
   const StateSpec* leaf = active_.back();
   const bool known = outcome.name == kOutcomeFailed || leaf->transition(outcome.name) != nullptr;
   if (!known) {
@@ -534,7 +300,7 @@ void Executor::finish_leaf(Outcome outcome) {
                       "behaviour returned an outcome it does not declare: \"" + outcome.name +
                           "\"" + (outcome.message.empty() ? "" : " (" + outcome.message + ")")};
   }
-  leave_leaf(outcome);
+  stop_leaf(outcome);
   const TransitionSpec* t = leaf->transition(outcome.name);
   const std::string reason = outcome.name + (outcome.message.empty() ? "" : ": " + outcome.message);
   if (t == nullptr) {
@@ -575,28 +341,28 @@ void Executor::follow(const StateSpec& from, const TransitionSpec& transition,
   if (next != nullptr) {
     request_enter(*next);
   } else if (chosen == kSkipTarget) {
-    end_visit("skipped", why);
+    record_visit_then_next("skipped", why);
   } else if (chosen == kDeferTarget) {
     defer_visit(why);
   } else if (chosen == kAbort) {
     abort_tour(from.path + ": " + why);
   } else {
-    complete_composite(*from.parent);
+    exit_composite(*from.parent);
   }
 }
 
-void Executor::complete_composite(const StateSpec& composite) {
+void Executor::exit_composite(const StateSpec& composite) {
   if (composite.for_each_target) {
-    end_visit("projected", "");
+    record_visit_then_next("projected", "");
     return;
   }
   unwind_to(&composite);
   active_.pop_back();
   emit(EventType::exit, composite);
-  composite_done(composite);
+  follow_composite_done(composite);
 }
 
-void Executor::composite_done(const StateSpec& composite) {
+void Executor::follow_composite_done(const StateSpec& composite) {
   emit(EventType::outcome, composite, kOutcomeDone);
   if (composite.parent == nullptr) {
     // A target passed over for its hours is the schedule at work, not a skip.
@@ -623,64 +389,9 @@ void Executor::unwind_to(const StateSpec* keep) {
   }
 }
 
-// Records the visit in progress as done with `outcome` and leaves its for_each state.
-void Executor::close_visit(const std::string& outcome, const std::string& reason) {
-  record_.outcome = outcome;
-  record_.reason = reason;
-  record_.retries = retries_taken();
-  records_.push_back(record_);
-  done_.insert(record_.index);
-  leave_visit_state();
-  for (ExecutorObserver* o : observers_) o->on_target_done(records_.back());
-}
-
-void Executor::leave_visit_state() {
-  const StateSpec* for_each = visit_state_;
-  unwind_to(for_each);
-  active_.pop_back();
-  emit(EventType::exit, *for_each);
-  current_target_.reset();
-  visit_state_ = nullptr;
-}
-
-// The visit ends unrecorded and its target goes after every other one left; the second time,
-// or with nothing else left to visit first, it is skipped.
-void Executor::defer_visit(const std::string& reason) {
-  const std::size_t index = record_.index;
-  bool others_left = false;
-  for (std::size_t i = 0; i < target_count(); ++i) {
-    others_left |= i != index && done_.count(i) == 0 && deferred_.count(i) == 0;
-  }
-  if (deferred_.count(index) != 0 || !others_left) {
-    end_visit("skipped",
-              reason + (deferred_.count(index) != 0 ? " (again, after it was left for later)"
-                                                    : " (no other target left to visit first)"));
-    return;
-  }
-  deferred_.insert(index);
-  if (run_.log != nullptr) {
-    run_.log->warning("target " + record_.id + ": left for later in the tour (" + reason + ")");
-  }
-  const StateSpec* for_each = visit_state_;
-  leave_visit_state();
-  begin_visit(*for_each);
-}
-
-void Executor::end_visit(const std::string& outcome, const std::string& reason) {
-  const StateSpec* for_each = visit_state_;
-  close_visit(outcome, reason);
-  begin_visit(*for_each);
-}
-
-int Executor::retries_taken() const {
-  int total = 0;
-  for (const auto& kv : retries_used_) total += kv.second;
-  return total;
-}
-
 void Executor::abort_tour(const std::string& reason) {
   abort_reason_ = reason;
-  if (current_target_ && visit_state_ != nullptr) close_visit("failed", reason);
+  if (current_target_ && visit_state_ != nullptr) record_visit("failed", reason);
   unwind_to(nullptr);
   finish_tour(TourOutcome::aborted);
 }
@@ -689,7 +400,7 @@ void Executor::abort_tour(const std::string& reason) {
 // its first state. One interrupted after `project` succeeded (while `next` stows the head) is
 // recorded as projected, so a resume does not project it a second time.
 void Executor::interrupt() {
-  if (current_target_ && visit_state_ != nullptr && visit_projected_) close_visit("projected", "");
+  if (current_target_ && visit_state_ != nullptr && visit_projected_) record_visit("projected", "");
   unwind_to(nullptr);
   finish_tour(TourOutcome::interrupted);
 }
@@ -743,7 +454,7 @@ bool Executor::step() {
     // handle in any state. No grace period either: nothing is running that could finish.
     paused_ = false;
     cancel_.request();
-    leave_leaf(Outcome{kOutcomeCancelled, "cancelled while paused"});
+    stop_leaf(Outcome{kOutcomeCancelled, "cancelled while paused"});
     const bool skipping = skip_reason_ && !cancel_requested_;
     after_cancelled_leaf();
     // The operator paused for a reason: skipping the visit does not also resume the tour.
@@ -755,7 +466,7 @@ bool Executor::step() {
     if (cancel_requested_) {
       interrupt();
     } else if (now_s >= next_round_s_ - 1e-9) {
-      begin_round();
+      start_next_round();
       process_requests();
     }
     return !finished_;
@@ -777,7 +488,7 @@ bool Executor::step() {
 
   if (cancel_.requested()) {
     if (outcome) {
-      leave_leaf(*outcome);
+      stop_leaf(*outcome);
       after_cancelled_leaf();
     } else if (now_s - cancel_started_s_ >= options_.cancel_grace_s - 1e-9) {
       const StateSpec* leaf = active_.back();
@@ -786,8 +497,8 @@ bool Executor::step() {
         run_.log->warning("behaviour " + leaf->behaviour + " in " + leaf->path +
                           " ignored the cancel; stopped after the grace period");
       }
-      leave_leaf(Outcome{kOutcomeCancelled, "ignored the cancel; stopped after " +
-                                                std::to_string(options_.cancel_grace_s) + " s"});
+      stop_leaf(Outcome{kOutcomeCancelled, "ignored the cancel; stopped after " +
+                                               std::to_string(options_.cancel_grace_s) + " s"});
       after_cancelled_leaf();
     }
     return !finished_;
@@ -813,120 +524,6 @@ TourOutcome Executor::run_to_end() {
   while (step()) {
   }
   return outcome_;
-}
-
-void Executor::pause() {
-  if (paused_ || finished_ || leaf_behaviour_ == nullptr) return;
-  paused_ = true;
-  leaf_timer_.pause(clock_.now_s());
-  leaf_behaviour_->pause(leaf_ctx_);
-}
-
-void Executor::resume() {
-  if (!paused_) return;
-  paused_ = false;
-  leaf_timer_.resume(clock_.now_s());
-  if (leaf_behaviour_ != nullptr) leaf_behaviour_->resume(leaf_ctx_);
-}
-
-Executor::ControlReply Executor::control(const std::string& request, const std::string& by,
-                                         const std::string& target) {
-  ControlReply reply;
-  if (finished_) {
-    reply.message = "the tour has ended";
-  } else if (request == "pause") {
-    reply.accepted = leaf_behaviour_ != nullptr && !paused_;
-    if (reply.accepted) pause();
-    reply.message = reply.accepted ? "paused" : paused_ ? "already paused" : "no step is active";
-  } else if (request == "resume") {
-    reply.accepted = paused_;
-    if (reply.accepted) resume();
-    reply.message = reply.accepted ? "resumed" : "not paused";
-  } else if (request == "cancel") {
-    reply.accepted = !cancel_requested_;
-    reply.message = reply.accepted ? "cancelling the tour" : "already cancelling";
-  } else if (request == "skip") {
-    reply = skip_current(by);
-  } else if (request == "retry") {
-    reply = retry_target(target);
-  } else {
-    reply.message = "unknown request \"" + request + "\"";
-  }
-  ExecutorEvent e;
-  e.t_s = clock_.now_s();
-  e.type = EventType::control;
-  e.state = active_state();
-  if (current_target_) e.target = run_.mission->targets[*current_target_].id;
-  e.request = request;
-  e.by = by;
-  e.accepted = reply.accepted;
-  e.message = reply.message;
-  e.retry_target = request == "retry" ? target : "";
-  publish(e);
-  // After the event, so that the log reads: asked, then what it did.
-  if (reply.accepted && request == "cancel") request_cancel();
-  return reply;
-}
-
-Executor::ControlReply Executor::skip_current(const std::string& by) {
-  if (!current_target_ || visit_state_ == nullptr || leaf_behaviour_ == nullptr) {
-    return {false, "no target is being visited"};
-  }
-  if (skip_reason_ || cancel_requested_) return {false, "already ending this visit"};
-  skip_reason_ = "skipped by " + by;
-  cancel_.request();
-  cancel_started_s_ = clock_.now_s();
-  return {true, "skipping " + run_.mission->targets[*current_target_].id};
-}
-
-Executor::ControlReply Executor::retry_target(const std::string& id) {
-  const auto& targets = run_.mission->targets;
-  std::size_t index = targets.size();
-  for (std::size_t i = 0; i < targets.size(); ++i) {
-    if (targets[i].id == id) index = i;
-  }
-  if (index == targets.size()) return {false, "no target \"" + id + "\" in the mission"};
-  if (current_target_ == index) return {false, id + " is being visited"};
-  // This round's record: a scheduled tour keeps one per round, and earlier rounds are history.
-  const auto record = std::find_if(records_.begin(), records_.end(), [&](const TargetRecord& r) {
-    return r.index == index && (!options_.schedule.written || r.round == round_);
-  });
-  if (record == records_.end()) return {false, id + " has not been visited yet"};
-  if (record->outcome == "projected") return {false, id + " was projected"};
-  if (record->outcome == "outside_hours") return {false, id + " is outside its hours"};
-  // A visit loop that has ended visits nothing more; only one still going can take it back.
-  if (current_target_ == std::nullopt && visit_state_ == nullptr) {
-    const bool visiting = std::any_of(active_.begin(), active_.end(),
-                                      [](const StateSpec* s) { return s->for_each_target; });
-    if (!visiting) return {false, "the targets' visits have ended"};
-  }
-  records_.erase(record);
-  done_.erase(index);
-  deferred_.erase(index);
-  return {true, id + " will be visited again later in the tour"};
-}
-
-void Executor::after_cancelled_leaf() {
-  if (skip_reason_ && !cancel_requested_ && current_target_ && visit_state_ != nullptr) {
-    const std::string reason = *skip_reason_;
-    skip_reason_.reset();
-    cancel_.reset();
-    // Content already shown stays shown: the visit is recorded as what it was.
-    end_visit(visit_projected_ ? "projected" : "skipped", visit_projected_ ? "" : reason);
-    process_requests();
-    return;
-  }
-  skip_reason_.reset();
-  interrupt();
-}
-
-void Executor::request_cancel() {
-  if (finished_) return;
-  cancel_requested_ = true;
-  if (!started_) {
-    started_ = true;
-    finish_tour(TourOutcome::interrupted);
-  }
 }
 
 }  // namespace projtour

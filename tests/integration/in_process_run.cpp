@@ -2,10 +2,10 @@
 
 #include <gtest/gtest.h>
 
-#include <sstream>
 #include <stdexcept>
 
 #include "projtour/ground_truth.hpp"
+#include "projtour_executor/run_session.hpp"
 
 namespace projtour::integration {
 
@@ -78,91 +78,61 @@ InProcessRun::InProcessRun(const std::filesystem::path& mission, const std::file
   options.mission = mission;
   options.dry_run = true;
   options.world = world;
+  options.seed = seed;
+  options.out = run_dir;
   options.plugin_paths = {PROJTOUR_PLUGIN_BUILD_DIR};
-  Diagnostics diag;
-  prepared_ = prepare_run(options, PrepareDepth::everything, diag);
-  if (!prepared_) {
-    std::string problems;
-    for (const auto& d : diag.items()) problems += d.format() + "\n";
-    throw std::runtime_error("cannot prepare " + mission.string() + ":\n" + problems);
+  // The tests' tours are no showings: they stay out of the user's history database.
+  options.no_history = true;
+  session_ = std::make_unique<RunSession>(options, out_, err_);
+  session_->set_driver_wrap(
+      [this](const std::string& interface, std::shared_ptr<Driver> d) -> std::shared_ptr<Driver> {
+        const Clock& clock = session_->clock();
+        if (interface == "pan_tilt") {
+          return std::make_shared<RecordingPanTilt>(std::dynamic_pointer_cast<PanTiltDriver>(d),
+                                                    calls_, clock);
+        }
+        if (interface == "projector") {
+          return std::make_shared<RecordingProjector>(std::dynamic_pointer_cast<ProjectorDriver>(d),
+                                                      calls_, clock);
+        }
+        return d;
+      });
+  if (session_->open() || session_->wire()) {
+    throw std::runtime_error("cannot set up a run of " + mission.string() + ":\n" + err_.str());
   }
-  std::filesystem::create_directories(run_dir / "targets");
-  run_.mission = &prepared_->mission;
-  run_.world = prepared_->world ? &*prepared_->world : nullptr;
-  run_.dry_run = true;
-  run_.seed = seed;
-  run_.run_dir = run_dir;
-  run_.map = prepared_->map;
-  run_.drivers = &drivers_;
-  run_.blackboard = &blackboard_;
-  run_.clock = &clock_;
-  run_.log = &logger_;
-  const PluginRegistry& registry = *prepared_->registry;
-  for (const auto& [interface, choice] : prepared_->drivers) {
-    auto d = registry.create_driver(choice.kind, choice.params, run_);
-    if (interface == "base") drivers_.base = std::dynamic_pointer_cast<BaseDriver>(d);
-    if (interface == "laser") drivers_.laser = std::dynamic_pointer_cast<LaserDriver>(d);
-    if (interface == "depth_camera") {
-      drivers_.depth_camera = std::dynamic_pointer_cast<DepthCameraDriver>(d);
-    }
-    if (interface == "colour_camera") {
-      drivers_.colour_camera = std::dynamic_pointer_cast<ColourCameraDriver>(d);
-    }
-    if (interface == "pan_tilt") {
-      drivers_.pan_tilt = std::make_shared<RecordingPanTilt>(
-          std::dynamic_pointer_cast<PanTiltDriver>(d), calls_, clock_);
-    }
-    if (interface == "projector") {
-      drivers_.projector = std::make_shared<RecordingProjector>(
-          std::dynamic_pointer_cast<ProjectorDriver>(d), calls_, clock_);
-    }
-  }
-  std::vector<ServiceInstance> services;
-  for (const auto& [role, choice] : prepared_->services) {
-    services.push_back(
-        {role, registry.create_service(choice.kind, choice.params, run_), choice.params});
-  }
-  auto behaviours = create_behaviours(*prepared_->machine, *prepared_->catalog, run_);
-  ExecutorOptions executor_options;
-  tick_s_ = executor_options.tick_s;
-  executor_ = std::make_unique<Executor>(*prepared_->machine, std::move(behaviours),
-                                         std::move(services), run_, clock_, executor_options);
-  executor_->add_observer(this);
+  session_->executor().add_observer(this);
 }
 
 InProcessRun::~InProcessRun() = default;
 
 void InProcessRun::on_event(const ExecutorEvent& event) {
   events_.push_back(event);
-  // As the command's VisitToTruth: the simulated world shows the visited target's object.
-  if (event.type != EventType::enter || !event.target) return;
-  if (GroundTruth* truth = drivers_.ground_truth()) truth->set_visited_target(*event.target);
 }
 
 bool InProcessRun::step_until(const std::string& state, const std::string& target) {
   for (;;) {
-    const std::string active = executor_->active_state();
-    const auto index = executor_->current_target();
+    const std::string active = executor().active_state();
+    const auto index = executor().current_target();
     if (!active.empty() && last_component(active) == state && index &&
-        run_.mission->targets[*index].id == target) {
+        session_->context().mission->targets[*index].id == target) {
       return true;
     }
-    if (!executor_->step()) return false;
+    if (!executor().step()) return false;
   }
 }
 
 void InProcessRun::steps(int n) {
-  for (int i = 0; i < n && executor_->step(); ++i) {
+  for (int i = 0; i < n && executor().step(); ++i) {
   }
 }
 
 void InProcessRun::paused_for(int ticks) {
-  executor_->pause();
+  executor().pause();
   steps(ticks);
 }
 
 TourOutcome InProcessRun::run_to_end() {
-  return executor_->run_to_end();
+  return executor().run_to_end();
 }
 
 std::vector<std::string> InProcessRun::device_calls_from(std::size_t from) const {

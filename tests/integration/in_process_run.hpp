@@ -1,17 +1,18 @@
 #pragma once
-// A dry run of an integration mission inside the test process: the real plugins and the
-// simulated drivers, loaded and checked as `projtour run --dry-run` does (prepare_run), with the
-// executor stepped by the test so it can pause, resume and cancel at a chosen state. The
-// projector and pan-tilt are wrapped so every call the tour makes on them is recorded.
+// A dry run of an integration mission inside the test process: the command's own RunSession
+// opened and wired as `projtour run --dry-run` does (the real plugins on the simulated drivers,
+// the run directory with its events and checkpoint), with the executor stepped by the test
+// instead of the session's loop, so it can pause, resume and cancel at a chosen state. The
+// projector and pan-tilt are wrapped as they are made so every call the tour makes on them is
+// recorded.
 #include <filesystem>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
-#include "projtour/blackboard.hpp"
-#include "projtour/logger.hpp"
 #include "projtour_executor/executor.hpp"
-#include "projtour_executor/runner.hpp"
+#include "projtour_executor/run_session.hpp"
 
 namespace projtour::integration {
 
@@ -36,8 +37,8 @@ class InProcessRun : public ExecutorObserver {
   void paused_for(int ticks);
   TourOutcome run_to_end();
 
-  Executor& executor() { return *executor_; }
-  double tick_s() const { return tick_s_; }
+  Executor& executor() { return session_->executor(); }
+  double tick_s() const { return session_->tick_s(); }
   const std::vector<DeviceCall>& device_calls() const { return *calls_; }
   // The calls from index `from` on, without their times.
   std::vector<std::string> device_calls_from(std::size_t from) const;
@@ -47,16 +48,12 @@ class InProcessRun : public ExecutorObserver {
   void on_event(const ExecutorEvent& event) override;
 
  private:
-  std::unique_ptr<PreparedRun> prepared_;
   std::shared_ptr<std::vector<DeviceCall>> calls_;
-  Blackboard blackboard_;
-  SteppedClock clock_;
-  StderrLogger logger_{LogLevel::error};
-  DriverSet drivers_;
-  RunContext run_;
-  std::unique_ptr<Executor> executor_;
+  // What the command would print: the progress, and the problems that stop the set-up.
+  std::ostringstream out_;
+  std::ostringstream err_;
+  std::unique_ptr<RunSession> session_;
   std::vector<ExecutorEvent> events_;
-  double tick_s_ = 0.05;
 };
 
 }  // namespace projtour::integration

@@ -131,42 +131,63 @@ class Executor {
   void process_requests();
   void emit(EventType type, const StateSpec& state, const std::string& outcome = "",
             const std::string& message = "", const std::string& to = "");
-  void enter(const StateSpec& state);
-  void enter_leaf(const StateSpec& state);
-  // Starts the visit of target `index`: per-target state reset, its directory, the enter event.
-  void open_visit(const StateSpec& for_each, std::size_t index);
-  void begin_visit(const StateSpec& for_each);
-  // All day: why target `index` is passed over now ("" when it is within its hours), its record
-  // and event; the end of a round (the next after the pause, or the visit loop's end).
-  std::string outside_hours(std::size_t index) const;
-  void pass_over(const StateSpec& for_each, std::size_t index, const std::string& reason);
-  void end_round(const StateSpec& for_each);
-  void begin_round();
-  void emit_round(const StateSpec& for_each, const std::string& outcome,
-                  const std::string& message);
   // Stamps the round and hands the event to every observer.
   void publish(ExecutorEvent& event);
+  // States and transitions (executor.cpp). enter() enters any state; a for_each starts its
+  // visits (visit_next_target), a leaf starts its behaviour (enter_leaf).
+  void enter(const StateSpec& state);
+  void enter_leaf(const StateSpec& state);
+  // The leaf's outcome as the machine reads it (an undeclared one is a failure): stop_leaf, then
+  // the transition for it, or the tour's abort when there is none.
+  void follow_leaf_outcome(Outcome outcome);
+  // Stops the active leaf's behaviour, takes the visit's measurements, exits and pops the leaf;
+  // follows nothing (a cancel's callers decide what comes next).
+  void stop_leaf(const Outcome& outcome);
+  void follow(const StateSpec& from, const TransitionSpec& transition, const std::string& reason);
+  // A composite reached its final state: a for_each's visit ends `projected`; any other
+  // composite is unwound and exited, then follow_composite_done.
+  void exit_composite(const StateSpec& composite);
+  // The exited composite's `done` outcome: the root's ends the tour, any other's is followed.
+  void follow_composite_done(const StateSpec& composite);
+  void unwind_to(const StateSpec* keep);
+  void abort_tour(const std::string& reason);
+  void interrupt();
+  void finish_tour(TourOutcome outcome);
+
+  // Visits and rounds (executor_visits.cpp).
+  // Picks the next target not done (passing over those outside their hours) and starts its
+  // visit; with none left, ends the round.
+  void visit_next_target(const StateSpec& for_each);
+  // Starts the visit of target `index`: per-target state reset, its directory, the enter event.
+  void start_target_visit(const StateSpec& for_each, std::size_t index);
   std::optional<std::size_t> choose_next_target(const StateSpec& for_each);
   std::size_t nearest_target(const PoseEstimate2D& estimate,
                              const std::vector<std::size_t>& remaining);
-  void finish_leaf(Outcome outcome);
-  void leave_leaf(const Outcome& outcome);
-  void follow(const StateSpec& from, const TransitionSpec& transition, const std::string& reason);
-  void complete_composite(const StateSpec& composite);
-  void composite_done(const StateSpec& composite);
-  void close_visit(const std::string& outcome, const std::string& reason);
-  void end_visit(const std::string& outcome, const std::string& reason);
+  // Records the visit in progress as done with `outcome` and exits its for_each state, without
+  // going on (the tour's abort and interrupt end there).
+  void record_visit(const std::string& outcome, const std::string& reason);
+  // record_visit, then visit_next_target: the visit ended and the tour goes on.
+  void record_visit_then_next(const std::string& outcome, const std::string& reason);
+  // The visit ends unrecorded and its target goes last (defer_target), or is skipped.
   void defer_visit(const std::string& reason);
-  void leave_visit_state();
-  void unwind_to(const StateSpec* keep);
-  void abort_tour(const std::string& reason);
+  // Exits the visit's states and its for_each, recording nothing.
+  void exit_visit_state();
   int retries_taken() const;
-  void interrupt();
+  // All day: why target `index` is passed over now ("" when it is within its hours), its record
+  // and event; the end of a round (the next after the pause, or the visit loop's end) and the
+  // start of the next one once its time has come.
+  std::string outside_hours(std::size_t index) const;
+  void pass_over(const StateSpec& for_each, std::size_t index, const std::string& reason);
+  void end_round(const StateSpec& for_each);
+  void start_next_round();
+  void emit_round(const StateSpec& for_each, const std::string& outcome,
+                  const std::string& message);
+
+  // The operator's controls (executor_controls.cpp).
   // After a leaf ended on a cancel: the operator's skip of the visit, or the tour's end.
   void after_cancelled_leaf();
   ControlReply skip_current(const std::string& by);
   ControlReply retry_target(const std::string& id);
-  void finish_tour(TourOutcome outcome);
   Context make_context(const StateSpec* leaf) const;
 
   Machine machine_;

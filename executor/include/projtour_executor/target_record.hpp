@@ -63,7 +63,7 @@ struct TargetMeasurements {
   std::optional<double> light_off_target_fraction;
 };
 
-// The outcomes the executor gives a visit (Executor's end_visit and close_visit), and a target
+// The outcomes the executor gives a visit (Executor's record_visit), and a target
 // passed over in a round because the time of day was outside its hours.
 inline constexpr const char* kTargetOutcomes[] = {"projected", "skipped", "failed",
                                                   "outside_hours"};
