@@ -5,6 +5,8 @@
 #include <iomanip>
 #include <sstream>
 
+#include "projtour_executor/record_fields.hpp"
+
 namespace projtour {
 
 namespace {
@@ -22,6 +24,20 @@ std::string cell(std::optional<double> value, int precision) {
   std::ostringstream out;
   out << std::fixed << std::setprecision(precision) << *value;
   return out.str();
+}
+
+// The number at j[key] (j[key][sub_key] when sub_key is not nullptr), if there is one.
+std::optional<double> figure(const Json& j, const char* key, const char* sub_key) {
+  const auto it = j.find(key);
+  if (it == j.end()) return std::nullopt;
+  const Json* v = &*it;
+  if (sub_key != nullptr) {
+    const auto sub = v->find(sub_key);
+    if (sub == v->end()) return std::nullopt;
+    v = &*sub;
+  }
+  if (!v->is_number()) return std::nullopt;
+  return v->get<double>();
 }
 
 }  // namespace
@@ -61,22 +77,20 @@ Json build_report(const RunSummary& summary) {
 }
 
 void print_target_table(const RunSummary& summary, std::ostream& out) {
-  std::vector<std::string> header = {"target",         "outcome",       "loc err m",   "align ms",
-                                     "proj mm before", "proj mm after", "observed mm", "reason"};
+  std::vector<std::string> header = {"target", "outcome"};
+  for (const OverviewColumn& c : kOverviewColumns) header.emplace_back(c.terminal_header);
+  header.emplace_back("reason");
   std::vector<std::vector<std::string>> rows;
   const bool rounds = std::any_of(summary.targets.begin(), summary.targets.end(),
                                   [](const TargetRecord& r) { return r.round > 0; });
   for (const auto& r : in_mission_order(summary.targets)) {
-    const TargetMeasurements& m = r.measurements;
-    std::optional<double> loc_m, align_ms, before_mm, after_mm;
-    if (m.localization_error) loc_m = m.localization_error->trans_m;
-    if (m.align) align_ms = m.align->time_ms;
-    if (m.projection_error_mm) {
-      before_mm = m.projection_error_mm->before_align;
-      after_mm = m.projection_error_mm->after_align;
+    // The columns' figures as report.json has them: one definition of where each one is.
+    const Json j = r;
+    rows.push_back({r.id, r.outcome});
+    for (const OverviewColumn& c : kOverviewColumns) {
+      rows.back().push_back(cell(figure(j, c.key, c.sub_key), c.precision));
     }
-    rows.push_back({r.id, r.outcome, cell(loc_m, 3), cell(align_ms, 1), cell(before_mm, 1),
-                    cell(after_mm, 1), cell(m.observed_error_mm, 1), r.reason});
+    rows.back().push_back(r.reason);
     if (rounds) rows.back().insert(rows.back().begin(), std::to_string(r.round));
   }
   if (rounds) header.insert(header.begin(), "round");

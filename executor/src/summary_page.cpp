@@ -16,6 +16,7 @@
 #include "assets.hpp"
 #include "projtour_executor/atomic_file.hpp"
 #include "projtour_executor/html_escape.hpp"
+#include "projtour_executor/record_fields.hpp"
 #include "projtour_executor/tour_picture.hpp"
 
 namespace projtour {
@@ -143,88 +144,83 @@ void flatten(const Json& j, const std::string& prefix,
   }
 }
 
-const std::set<std::string> kKnownTargetFields = {"id",
-                                                  "outcome",
-                                                  "reason",
-                                                  "retries",
-                                                  "projected_s",
-                                                  "beam_interruptions",
-                                                  "blanked_s",
-                                                  "align",
-                                                  "localization_error",
-                                                  "target_pose_error",
-                                                  "projection_error_mm",
-                                                  "projection_error_px",
-                                                  "observed_error_mm",
-                                                  "observed_light_on_target",
-                                                  "projection_error_area_mm",
-                                                  "light_off_target_fraction"};
+using Rows = std::vector<std::pair<std::string, std::string>>;  // label, HTML
+
+// One figure as its PageFormat shows it ("" when `v` is absent or not of its kind).
+std::string shown(const Json* v, const PageFormat& page) {
+  if (v == nullptr) return "";
+  if (page.precision == PageFormat::kAsText) {
+    const std::string t = text(*v, {});
+    return t.empty() ? "" : page.before + html_escape(t) + page.unit;
+  }
+  if (!v->is_number()) return "";
+  return page.before + fixed(page.scale * v->get<double>(), page.precision) + page.unit;
+}
+
+// A nested type's row: its shown fields' parts joined.
+template <class T>
+std::string parts_of(const Json& value) {
+  static const T kShape{};
+  std::vector<std::string> parts;
+  for_each_field(kShape, [&](const auto& f, const auto&) {
+    if (f.page.shown) parts.push_back(shown(at_path(value, {f.key}), f.page));
+  });
+  return joined(parts);
+}
+
+// The rows that join figures of several fields, by the key of the field whose row it is.
+bool joined_rows(const Json& t, const std::string& key, const PageFormat& page, Rows& rows) {
+  if (key == "outcome") {
+    rows.emplace_back(page.label, badge(text(t, {"outcome"})));
+  } else if (key == "beam_interruptions") {
+    if (auto n = number(t, {"beam_interruptions"}); n && *n > 0) {
+      rows.emplace_back(page.label, fixed(*n, 0) + " interruptions, blanked " +
+                                        fixed(number(t, {"blanked_s"}).value_or(0.0), 1) + " s");
+    }
+  } else if (key == "projection_error_mm") {
+    // A row per BeforeAfter field, each with the mm and px figures.
+    static const BeforeAfter kShape{};
+    for_each_field(kShape, [&](const auto& f, const auto&) {
+      const auto mm = number(t, {"projection_error_mm", f.key});
+      const auto px = number(t, {"projection_error_px", f.key});
+      if (mm || px) {
+        rows.emplace_back(std::string(page.label) + " " + f.page.label + " alignment",
+                          joined({with_unit(mm, 1, " mm"), with_unit(px, 1, " px")}));
+      }
+    });
+  } else if (key == "observed_error_mm") {
+    if (auto observed = number(t, {"observed_error_mm"})) {
+      rows.emplace_back(page.label,
+                        joined({with_unit(observed, page.precision, page.unit),
+                                with_unit(number(t, {"projection_error_mm", "after_align"}), 1,
+                                          " mm true (referee)")}));
+    }
+  } else {
+    return false;
+  }
+  return true;
+}
 
 void target_figures(std::ostringstream& h, const Json& t) {
-  std::vector<std::pair<std::string, std::string>> rows;  // label, HTML
-  rows.emplace_back("outcome", badge(text(t, {"outcome"})));
-  if (const std::string reason = text(t, {"reason"}); !reason.empty()) {
-    rows.emplace_back("reason", html_escape(reason));
-  }
-  if (at_path(t, {"retries"}) != nullptr)
-    rows.emplace_back("retries", html_escape(text(t, {"retries"})));
-  if (auto s = number(t, {"projected_s"})) rows.emplace_back("projected for", fixed(*s, 1) + " s");
-  if (auto n = number(t, {"beam_interruptions"}); n && *n > 0) {
-    rows.emplace_back("beam guard", fixed(*n, 0) + " interruptions, blanked " +
-                                        fixed(number(t, {"blanked_s"}).value_or(0.0), 1) + " s");
-  }
-  if (at_path(t, {"align"}) != nullptr) {
-    const auto iterations = number(t, {"align", "iterations"});
-    const auto inliers = number(t, {"align", "inlier_fraction"});
-    rows.emplace_back("alignment",
-                      joined({html_escape(text(t, {"align", "method"})),
-                              with_unit(number(t, {"align", "time_ms"}), 1, " ms"),
-                              iterations ? fixed(*iterations, 0) + " iterations" : "",
-                              inliers ? "inlier fraction " + fixed(*inliers, 3) : "",
-                              with_unit(number(t, {"align", "rmse_mm"}), 2, " mm RMSE")}));
-  }
-  if (at_path(t, {"localization_error"}) != nullptr) {
-    rows.emplace_back(
-        "localization error",
-        joined({with_unit(number(t, {"localization_error", "trans_m"}), 3, " m"),
-                with_unit(number(t, {"localization_error", "rot_deg"}), 2, "&deg;")}));
-  }
-  if (at_path(t, {"target_pose_error"}) != nullptr) {
-    rows.emplace_back("target pose error",
-                      joined({with_unit(number(t, {"target_pose_error", "trans_mm"}), 1, " mm"),
-                              with_unit(number(t, {"target_pose_error", "rot_deg"}), 2, "&deg;")}));
-  }
-  for (const auto& [key, label] :
-       {std::pair<const char*, const char*>{"before_align", "before"}, {"after_align", "after"}}) {
-    const auto mm = number(t, {"projection_error_mm", key});
-    const auto px = number(t, {"projection_error_px", key});
-    if (mm || px) {
-      rows.emplace_back(std::string("projection error ") + label + " alignment",
-                        joined({with_unit(mm, 1, " mm"), with_unit(px, 1, " px")}));
+  Rows rows;
+  std::set<std::string> known;
+  static const TargetRecord kShape{};
+  for_each_field(kShape, [&](const auto& f, const auto& owner) {
+    known.insert(f.key);
+    if (f.page.label == nullptr || joined_rows(t, f.key, f.page, rows)) return;
+    const Json* v = at_path(t, {f.key});
+    using V = field_value_t<std::decay_t<decltype(owner.*f.member)>>;
+    if constexpr (Fields<V>::kDefined) {
+      if (v != nullptr) rows.emplace_back(f.page.label, parts_of<V>(*v));
+    } else if (const std::string value = shown(v, f.page); !value.empty()) {
+      rows.emplace_back(f.page.label, value);
     }
-  }
-  if (auto observed = number(t, {"observed_error_mm"})) {
-    rows.emplace_back("observed error (colour camera)",
-                      joined({with_unit(observed, 1, " mm"),
-                              with_unit(number(t, {"projection_error_mm", "after_align"}), 1,
-                                        " mm true (referee)")}));
-  }
-  if (auto light = number(t, {"observed_light_on_target"})) {
-    rows.emplace_back("light on the target (observed)", fixed(100.0 * *light, 1) + " %");
-  }
-  if (at_path(t, {"projection_error_area_mm"}) != nullptr) {
-    rows.emplace_back(
-        "projection error over the content area",
-        joined({with_unit(number(t, {"projection_error_area_mm", "mean"}), 1, " mm mean"),
-                with_unit(number(t, {"projection_error_area_mm", "max"}), 1, " mm worst")}));
-  }
-  if (auto off = number(t, {"light_off_target_fraction"})) {
-    rows.emplace_back("light off the target (referee)", fixed(100.0 * *off, 1) + " %");
-  }
-  std::vector<std::pair<std::string, std::string>> other;
+  });
+  // Fields of a report this page does not know, every leaf as "a.b".
+  Rows other;
   if (t.is_object()) {
     for (auto it = t.begin(); it != t.end(); ++it) {
-      if (kKnownTargetFields.count(it.key()) == 0) flatten(it.value(), it.key(), other);
+      if (known.count(it.key()) == 0) flatten(it.value(), it.key(), other);
     }
   }
   for (const auto& [k, v] : other) rows.emplace_back(k, html_escape(v));
@@ -259,21 +255,20 @@ void target_pictures(std::ostringstream& h, const std::string& id,
 
 // The rows of `round` (every row when 0, a run without a schedule).
 void overview_table(std::ostringstream& h, const Json& targets, long long round) {
-  h << "<table class=\"overview\">\n<tr><th>target</th><th>outcome</th><th>localization error "
-       "m</th><th>align ms</th><th>projection error before mm</th><th>projection error after "
-       "mm</th><th>observed error mm</th><th>reason</th></tr>\n";
+  h << "<table class=\"overview\">\n<tr><th>target</th><th>outcome</th>";
+  for (const OverviewColumn& c : kOverviewColumns) h << "<th>" << c.page_header << "</th>";
+  h << "<th>reason</th></tr>\n";
   for (const Json& t : targets) {
     if (round_of(t) != round) continue;
     const std::string id = text(t, {"id"});
     h << "<tr><td><a href=\"#" << anchor(id, round) << "\">" << html_escape(id)
       << (text(t, {"content"}).empty() ? "" : " (" + html_escape(text(t, {"content"})) + ")")
-      << "</a></td><td>" << badge(text(t, {"outcome"})) << "</td><td>"
-      << fixed_or_dash(number(t, {"localization_error", "trans_m"}), 3) << "</td><td>"
-      << fixed_or_dash(number(t, {"align", "time_ms"}), 1) << "</td><td>"
-      << fixed_or_dash(number(t, {"projection_error_mm", "before_align"}), 1) << "</td><td>"
-      << fixed_or_dash(number(t, {"projection_error_mm", "after_align"}), 1) << "</td><td>"
-      << fixed_or_dash(number(t, {"observed_error_mm"}), 1) << "</td><td>"
-      << html_escape(text(t, {"reason"})) << "</td></tr>\n";
+      << "</a></td><td>" << badge(text(t, {"outcome"})) << "</td><td>";
+    for (const OverviewColumn& c : kOverviewColumns) {
+      const auto v = c.sub_key ? number(t, {c.key, c.sub_key}) : number(t, {c.key});
+      h << fixed_or_dash(v, c.precision) << "</td><td>";
+    }
+    h << html_escape(text(t, {"reason"})) << "</td></tr>\n";
   }
   h << "</table>\n";
 }

@@ -1,6 +1,8 @@
 #pragma once
 // One target's entry of report.json and checkpoint.json: its outcome and the figures measured
 // while it was visited (measurements.hpp), written and read back through to_json/from_json.
+// Each type's fields (keys, order, when written, how the summary page shows them) are listed
+// once, in record_fields.hpp: a new figure is a member here and a line there.
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -83,8 +85,9 @@ struct TargetRecord {
   TargetMeasurements measurements;
 };
 
-// nlohmann's ADL hooks. The from_json ones are strict: every field of its JSON type, no
-// unknown fields, each error a std::runtime_error naming the field.
+// nlohmann's ADL hooks, walking each type's fields as record_fields.hpp defines them. The
+// from_json ones are strict: every field of its JSON type, no unknown fields, each error a
+// std::runtime_error naming the field.
 void to_json(Json& j, const AlignFigures& a);
 void from_json(const Json& j, AlignFigures& a);
 void to_json(Json& j, const LocalizationError& e);
@@ -97,7 +100,7 @@ void to_json(Json& j, const AreaError& e);
 void from_json(const Json& j, AreaError& e);
 void to_json(Json& j, const CalibrateResult& c);
 void from_json(const Json& j, CalibrateResult& c);
-// Fields in DESIGN.md's order; `index` is left as it was.
+// `index` is not written, and left as it was on reading.
 void to_json(Json& j, const TargetRecord& r);
 void from_json(const Json& j, TargetRecord& r);
 
