@@ -1,5 +1,8 @@
 # Shared build settings and helpers for every projtour target.
 
+# This folder, for the scripts the functions below run (read where they are called).
+set(_projtour_targets_dir ${CMAKE_CURRENT_LIST_DIR})
+
 function(projtour_target_options target)
   target_compile_options(${target} PRIVATE -Wall -Wextra)
   if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
@@ -103,19 +106,30 @@ function(projtour_add_test name)
     PROJTOUR_BINARY_DIR="${PROJECT_BINARY_DIR}"
     PROJTOUR_PLUGIN_BUILD_DIR="${PROJTOUR_PLUGIN_BUILD_DIR}")
   # The folder's label comes from tests/CMakeLists.txt; LABELS adds at most one more (unit,
-  # plugins, slow), since gtest_discover_tests in CMake 3.25 turns "a;b" into two properties.
+  # plugins, slow): the folder's reaches the suites' tests as a directory property, and one
+  # more is one word on their set_tests_properties line.
   # `slow`: what `make test` runs after the fast suite (ctest -LE slow, then -L slow).
   list(LENGTH T_LABELS label_count)
   if(label_count GREATER 1)
     message(FATAL_ERROR "projtour_add_test(${name}): one label beyond the folder's, got ${T_LABELS}")
   endif()
-  set(label_property)
-  if(T_LABELS)
-    set(label_property LABELS ${T_LABELS})
-  endif()
-  gtest_discover_tests(${name}
-    DISCOVERY_TIMEOUT 60
-    PROPERTIES TIMEOUT ${T_TIMEOUT} ${label_property})
+  # One ctest test per GoogleTest suite ("Suite.*", all its cases in one process), listed after
+  # each build as gtest_discover_tests would list cases: see ProjtourGtestSuites.cmake for why.
+  set(suites_file ${CMAKE_CURRENT_BINARY_DIR}/${name}_suites.cmake)
+  add_custom_command(TARGET ${name} POST_BUILD
+    COMMAND ${CMAKE_COMMAND} -D EXE=$<TARGET_FILE:${name}> -D OUT=${suites_file}
+            -D WORKDIR=${CMAKE_CURRENT_BINARY_DIR} -D TIMEOUT=${T_TIMEOUT} -D LABEL=${T_LABELS}
+            -P ${_projtour_targets_dir}/ProjtourGtestSuites.cmake
+    BYPRODUCTS ${suites_file}
+    VERBATIM)
+  set(include_file ${CMAKE_CURRENT_BINARY_DIR}/${name}_include.cmake)
+  file(WRITE ${include_file}
+    "if(EXISTS [==[${suites_file}]==])\n"
+    "  include([==[${suites_file}]==])\n"
+    "else()\n"
+    "  add_test([==[${name}_NOT_BUILT]==] [==[${name}_NOT_BUILT]==])\n"
+    "endif()\n")
+  set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES ${include_file})
 endfunction()
 
 # projtour_add_bench(NAME SOURCES a.cpp ... [LIBS lib ...])
