@@ -235,94 +235,57 @@ void write_tum(std::ostream& out, double t_s, const Pose2D& p) {
       << std::sin(0.5 * p.yaw_rad) << " " << std::cos(0.5 * p.yaw_rad) << "\n";
 }
 
-}  // namespace
-
-int run_localize_command(int argc, char** argv) {
-  const auto args = parse(argc, argv);
-  if (!args) return 2;
-
+// What the command reads: the map, the rawlog and the trajectories to score against or to
+// score. False (with the reason on stderr) when one cannot be read.
+struct Inputs {
   std::shared_ptr<mrpt::maps::COccupancyGridMap2D> map;
-  try {
-    map = load_occupancy_grid(args->map);
-  } catch (const std::exception& e) {
-    std::cerr << "projtour localize: " << e.what() << "\n";
-    return 2;
-  }
   mrpt::obs::CRawlog rawlog;
-  if (!std::filesystem::exists(args->rawlog) || !rawlog.loadFromRawLogFile(args->rawlog)) {
-    std::cerr << "projtour localize: " << args->rawlog << ": cannot read the rawlog\n";
-    return 2;
-  }
-
   std::vector<StampedPose> truth, scored;
+};
+
+bool load_inputs(const Arguments& args, Inputs& in) {
   try {
-    if (!args->truth.empty()) truth = read_trajectory(args->truth);
-    if (!args->score.empty()) scored = read_trajectory(args->score);
+    in.map = load_occupancy_grid(args.map);
   } catch (const std::exception& e) {
     std::cerr << "projtour localize: " << e.what() << "\n";
-    return 2;
+    return false;
   }
-
-  std::ofstream file;
-  if (!args->out.empty()) {
-    file.open(args->out);
-    if (!file) {
-      std::cerr << "projtour localize: " << args->out << ": cannot write\n";
-      return 2;
-    }
+  if (!std::filesystem::exists(args.rawlog) || !in.rawlog.loadFromRawLogFile(args.rawlog)) {
+    std::cerr << "projtour localize: " << args.rawlog << ": cannot read the rawlog\n";
+    return false;
   }
-  std::ostream& out = args->out.empty() ? std::cout : file;
+  try {
+    if (!args.truth.empty()) in.truth = read_trajectory(args.truth);
+    if (!args.score.empty()) in.scored = read_trajectory(args.score);
+  } catch (const std::exception& e) {
+    std::cerr << "projtour localize: " << e.what() << "\n";
+    return false;
+  }
+  return true;
+}
 
-  LocalizerOptions options;
-  options.particles = args->particles;
-  options.lf_field = args->field;
-  Localizer localizer(*map, options, args->seed);
-  localizer.reset(args->init);
-  const cv::Mat distance_m = wall_face_distance_m(*map);
-
-  // Odometry arrives either as action collections (increments) or, in observation-only
-  // rawlogs, as absolute odometry readings; both become the increment since the last scan.
-  Pose2D pending;
-  std::optional<Pose2D> last_odometry;
+// What the replay counts over the scans, for the summary.
+struct Tally {
   std::size_t scans = 0, converged_scans = 0, unscored = 0;
   std::size_t endpoints_on = 0, endpoints = 0;
   std::vector<double> errors_m;
   double update_s = 0.0;
-  Progress progress(rawlog.size());
-  auto process_scan = [&](const mrpt::obs::CObservation2DRangeScan& scan) {
-    const double t_s = scan.timestamp == mrpt::Clock::time_point()
-                           ? static_cast<double>(scans)
-                           : mrpt::Clock::toDouble(scan.timestamp);
-    std::optional<Pose2D> pose;
-    if (scored.empty()) {
-      const auto t0 = std::chrono::steady_clock::now();
-      localizer.update(pending, scan);
-      update_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      pose = localizer.estimate().mean;
-      if (localizer.converged()) ++converged_scans;
-    } else if (const StampedPose* p = nearest(scored, t_s)) {
-      pose = p->pose;
-    }
-    pending = Pose2D{};
-    const bool counted = static_cast<int>(scans++) >= args->from_scan;
-    if (!pose) {
-      ++unscored;
-      return;
-    }
-    write_tum(out, t_s, *pose);
-    if (!counted) return;
-    const auto [on, valid] = endpoints_on_map(*map, distance_m, *pose, scan);
-    endpoints_on += on;
-    endpoints += valid;
-    if (!truth.empty()) {
-      if (const StampedPose* t = nearest(truth, t_s)) {
-        errors_m.push_back(std::hypot(pose->x_m - t->pose.x_m, pose->y_m - t->pose.y_m));
-      }
-    }
-  };
-  auto add_odometry = [&](const Pose2D& increment) { pending = pose_compose(pending, increment); };
+};
 
-  try {
+// The rawlog replayed in order: each scan localized (or, with --score, looked up in the
+// trajectory scored), its pose written out and checked against the map and the truth.
+class Replay {
+ public:
+  Replay(const Arguments& args, const Inputs& in, Localizer& localizer, std::ostream& out)
+      : args_(args),
+        in_(in),
+        localizer_(localizer),
+        out_(out),
+        distance_m_(wall_face_distance_m(*in.map)) {}
+
+  // Throws what the rawlog's entries or the localizer throw.
+  void run(Progress& progress) {
+    const mrpt::obs::CRawlog& rawlog = in_.rawlog;
     for (std::size_t i = 0; i < rawlog.size(); ++i) {
       switch (rawlog.getType(i)) {
         case mrpt::obs::CRawlog::etActionCollection: {
@@ -344,56 +307,102 @@ int run_localize_command(int argc, char** argv) {
           }
           break;
         }
-        case mrpt::obs::CRawlog::etObservation: {
-          const auto obs = rawlog.getAsObservation(i);
-          if (const auto odo = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(obs)) {
-            const Pose2D now{odo->odometry.x(), odo->odometry.y(), odo->odometry.phi()};
-            if (last_odometry) add_odometry(pose_delta(*last_odometry, now));
-            last_odometry = now;
-          } else if (const auto scan =
-                         std::dynamic_pointer_cast<mrpt::obs::CObservation2DRangeScan>(obs)) {
-            process_scan(*scan);
-          }
+        case mrpt::obs::CRawlog::etObservation:
+          observation(rawlog.getAsObservation(i));
           break;
-        }
         default:
           break;
       }
-      progress.update(i + 1, scans);
+      progress.update(i + 1, tally_.scans);
     }
-  } catch (const std::exception& e) {
-    progress.finish();
-    std::cerr << "projtour localize: " << e.what() << "\n";
-    return 1;
   }
-  progress.finish();
-  if (!out) {
-    std::cerr << "projtour localize: " << args->out << ": write failed\n";
-    return 1;
+
+  const Tally& tally() const { return tally_; }
+
+ private:
+  void observation(const mrpt::obs::CObservation::Ptr& obs) {
+    if (const auto odo = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(obs)) {
+      const Pose2D now{odo->odometry.x(), odo->odometry.y(), odo->odometry.phi()};
+      if (last_odometry_) add_odometry(pose_delta(*last_odometry_, now));
+      last_odometry_ = now;
+    } else if (const auto scan =
+                   std::dynamic_pointer_cast<mrpt::obs::CObservation2DRangeScan>(obs)) {
+      process_scan(*scan);
+    }
   }
-  if (scans == 0) {
-    std::cerr << "projtour localize: " << args->rawlog << ": no 2-D laser scans\n";
-    return 2;
+
+  void add_odometry(const Pose2D& increment) { pending_ = pose_compose(pending_, increment); }
+
+  void process_scan(const mrpt::obs::CObservation2DRangeScan& scan) {
+    const double t_s = scan.timestamp == mrpt::Clock::time_point()
+                           ? static_cast<double>(tally_.scans)
+                           : mrpt::Clock::toDouble(scan.timestamp);
+    std::optional<Pose2D> pose;
+    if (in_.scored.empty()) {
+      const auto t0 = std::chrono::steady_clock::now();
+      localizer_.update(pending_, scan);
+      tally_.update_s +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      pose = localizer_.estimate().mean;
+      if (localizer_.converged()) ++tally_.converged_scans;
+    } else if (const StampedPose* p = nearest(in_.scored, t_s)) {
+      pose = p->pose;
+    }
+    pending_ = Pose2D{};
+    const bool counted = static_cast<int>(tally_.scans++) >= args_.from_scan;
+    if (!pose) {
+      ++tally_.unscored;
+      return;
+    }
+    write_tum(out_, t_s, *pose);
+    if (!counted) return;
+    const auto [on, valid] = endpoints_on_map(*in_.map, distance_m_, *pose, scan);
+    tally_.endpoints_on += on;
+    tally_.endpoints += valid;
+    if (!in_.truth.empty()) {
+      if (const StampedPose* t = nearest(in_.truth, t_s)) {
+        tally_.errors_m.push_back(std::hypot(pose->x_m - t->pose.x_m, pose->y_m - t->pose.y_m));
+      }
+    }
   }
-  if (scored.empty()) {
+
+  const Arguments& args_;
+  const Inputs& in_;
+  Localizer& localizer_;
+  std::ostream& out_;
+  const cv::Mat distance_m_;
+  // Odometry arrives either as action collections (increments) or, in observation-only
+  // rawlogs, as absolute odometry readings; both become the increment since the last scan.
+  Pose2D pending_;
+  std::optional<Pose2D> last_odometry_;
+  Tally tally_;
+};
+
+// The summary on stderr; the exit code: 2 when no truth pose matched any scan, else 0.
+int print_summary(const Arguments& args, const Inputs& in, const Localizer& localizer,
+                  const Tally& tally) {
+  const std::size_t scans = tally.scans;
+  if (in.scored.empty()) {
     const PoseEstimate2D final_estimate = localizer.estimate();
     std::fprintf(stderr,
                  "localize: %zu scans, converged for %zu (%.0f%%), final std %.3f m %.2f deg, "
                  "scans on the map's walls %.0f%%, %.2f ms per update with %zu particles\n",
-                 scans, converged_scans, 100.0 * converged_scans / scans,
+                 scans, tally.converged_scans, 100.0 * tally.converged_scans / scans,
                  position_std_m(final_estimate), rad_to_deg(yaw_std_rad(final_estimate)),
-                 100.0 * localizer.scan_fit(), 1000.0 * update_s / scans,
+                 100.0 * localizer.scan_fit(), 1000.0 * tally.update_s / scans,
                  localizer.particle_count());
   } else {
-    std::fprintf(stderr, "localize: %zu scans, %zu with no pose in %s\n", scans, unscored,
-                 args->score.c_str());
+    std::fprintf(stderr, "localize: %zu scans, %zu with no pose in %s\n", scans, tally.unscored,
+                 args.score.c_str());
   }
   std::fprintf(
       stderr, "localize: endpoints within %.2f m of a wall face from scan %d: %.1f%% of %zu\n",
-      kOnMapM, args->from_scan, endpoints ? 100.0 * endpoints_on / endpoints : 0.0, endpoints);
-  if (!truth.empty()) {
+      kOnMapM, args.from_scan, tally.endpoints ? 100.0 * tally.endpoints_on / tally.endpoints : 0.0,
+      tally.endpoints);
+  if (!in.truth.empty()) {
+    const std::vector<double>& errors_m = tally.errors_m;
     if (errors_m.empty()) {
-      std::cerr << "projtour localize: " << args->truth << ": no pose within " << kMatchS
+      std::cerr << "projtour localize: " << args.truth << ": no pose within " << kMatchS
                 << " s of any scan\n";
       return 2;
     }
@@ -404,6 +413,50 @@ int run_localize_command(int argc, char** argv) {
                  *std::max_element(errors_m.begin(), errors_m.end()));
   }
   return 0;
+}
+
+}  // namespace
+
+int run_localize_command(int argc, char** argv) {
+  const auto args = parse(argc, argv);
+  if (!args) return 2;
+  Inputs in;
+  if (!load_inputs(*args, in)) return 2;
+
+  std::ofstream file;
+  if (!args->out.empty()) {
+    file.open(args->out);
+    if (!file) {
+      std::cerr << "projtour localize: " << args->out << ": cannot write\n";
+      return 2;
+    }
+  }
+  std::ostream& out = args->out.empty() ? std::cout : file;
+
+  LocalizerOptions options;
+  options.particles = args->particles;
+  options.lf_field = args->field;
+  Localizer localizer(*in.map, options, args->seed);
+  localizer.reset(args->init);
+  Replay replay(*args, in, localizer, out);
+  Progress progress(in.rawlog.size());
+  try {
+    replay.run(progress);
+  } catch (const std::exception& e) {
+    progress.finish();
+    std::cerr << "projtour localize: " << e.what() << "\n";
+    return 1;
+  }
+  progress.finish();
+  if (!out) {
+    std::cerr << "projtour localize: " << args->out << ": write failed\n";
+    return 1;
+  }
+  if (replay.tally().scans == 0) {
+    std::cerr << "projtour localize: " << args->rawlog << ": no 2-D laser scans\n";
+    return 2;
+  }
+  return print_summary(*args, in, localizer, replay.tally());
 }
 
 }  // namespace projtour

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
+#include <string>
 #include <vector>
 
 #include "projtour/geometry.hpp"
@@ -211,6 +213,129 @@ bool HeadKinematics::within_limits(const JointAngles& q) const {
          q.tilt_rad <= deg_to_rad(pan_tilt_.tilt_max_deg) + eps_rad;
 }
 
+namespace {
+
+// The point to aim at and the projector's optical axis, as aim_projector_at's closed forms read
+// them: the point in the pan joint frame (p0, at r from the pan axis and azimuth phi), the
+// axis' centre c and unit direction d in the projector's link frame, and the joint limits.
+struct AimQuery {
+  Eigen::Vector3d p0;
+  double r, phi;
+  Eigen::Vector3d c_link, d_link;
+  double pan_min, pan_max, tilt_min, tilt_max;
+};
+
+// The joint angles that reach the point, and every rejected candidate's reason, so "out of
+// reach" says what each way of reaching would need.
+struct AimCandidates {
+  std::vector<JointAngles> solutions;
+  std::vector<std::string> rejections;
+  void reject(const std::string& reason) {
+    if (std::find(rejections.begin(), rejections.end(), reason) == rejections.end()) {
+      rejections.push_back(reason);
+    }
+  }
+};
+
+// Projector on the pan link: one degree of freedom, the point must lie on the cone the axis
+// sweeps. Pan so that the point is in the axis' vertical plane, then check its distance to the
+// axis. The reason when the geometry rules out every pan; nullopt once out is filled.
+std::optional<std::string> aim_on_pan_link(const AimQuery& in, AimCandidates& out) {
+  const Eigen::Vector3d& c_link = in.c_link;
+  const Eigen::Vector3d& d_link = in.d_link;
+  const Eigen::Vector2d d_h(d_link.x(), d_link.y());
+  if (d_h.norm() < kAxisTolerance) return "projector on the pan link looks straight up/down";
+  const Eigen::Vector2d n_h = Eigen::Vector2d(-d_h.y(), d_h.x()).normalized();  // left of axis
+  const double h = n_h.dot(Eigen::Vector2d(c_link.x(), c_link.y()));
+  if (in.r < std::abs(h)) {
+    return "point " + fmt_m(in.r) + " m from the pan axis, inside the projector's lateral offset " +
+           fmt_m(std::abs(h)) + " m";
+  }
+  const double alpha = std::atan2(n_h.y(), n_h.x());
+  double best_off_m = 1e300;
+  for (double sign : {1.0, -1.0}) {
+    const double psi = sign * std::acos(std::clamp(h / in.r, -1.0, 1.0));
+    for (double pan : pan_representatives(in.phi - alpha - psi, in.pan_min, in.pan_max)) {
+      const JointAngles q{pan, 0.0};
+      const Eigen::Vector3d p_pan = rot_z(pan).inverse() * in.p0;
+      const double s = (p_pan - c_link).dot(d_link);
+      const double off_m = ((p_pan - c_link) - s * d_link).norm();
+      if (s <= 0.0) continue;
+      best_off_m = std::min(best_off_m, off_m);
+      if (off_m > kPanOnlyTolerance_m) continue;
+      if (q.pan_rad < in.pan_min - 1e-12 || q.pan_rad > in.pan_max + 1e-12) {
+        out.reject("needs pan " + fmt_deg(pan) + " deg outside [" + fmt_deg(in.pan_min) + ", " +
+                   fmt_deg(in.pan_max) + "] deg");
+        continue;
+      }
+      out.solutions.push_back({pan, std::clamp(0.0, in.tilt_min, in.tilt_max)});
+    }
+  }
+  if (out.solutions.empty() && out.rejections.empty()) {
+    out.reject("projector on the pan link: tilt cannot raise or lower its axis, which passes " +
+               (best_off_m < 1e299 ? fmt_m(best_off_m) + " m" : std::string("nowhere near")) +
+               " from the point");
+  }
+  return std::nullopt;
+}
+
+// Projector on the tilt link, its optical axis perpendicular to the tilt axis a (the caller
+// checked): steps 1 and 2 of aim_projector_at's closed form. The reason when the geometry rules
+// out every pan; nullopt once out is filled.
+std::optional<std::string> aim_on_tilt_link(const AimQuery& in,
+                                            const Eigen::Isometry3d& T_pan_tilt0,
+                                            AimCandidates& out) {
+  const Eigen::Vector3d a = T_pan_tilt0.linear().col(1);  // tilt axis in the pan link
+  const Eigen::Vector3d t0 = T_pan_tilt0.translation();
+  const double h = a.dot(t0) + in.c_link.y();  // lateral offset of the optical axis' plane
+  if (in.r < std::abs(h)) {
+    return "point " + fmt_m(in.r) +
+           " m from the pan axis, inside the optical axis' lateral offset " + fmt_m(std::abs(h)) +
+           " m";
+  }
+  const double alpha = std::atan2(a.y(), a.x());
+  const Eigen::Vector2d c_xz(in.c_link.x(), in.c_link.z());
+  const Eigen::Vector2d d_xz = Eigen::Vector2d(in.d_link.x(), in.d_link.z()).normalized();
+  for (double sign : {1.0, -1.0}) {
+    const double psi = sign * std::acos(std::clamp(h / in.r, -1.0, 1.0));
+    for (double pan : pan_representatives(in.phi - alpha - psi, in.pan_min, in.pan_max)) {
+      const Eigen::Vector3d q3 = T_pan_tilt0.inverse() * (rot_z(pan).inverse() * in.p0);
+      const Eigen::Vector2d q_xz(q3.x(), q3.z());
+      // |c_xz + s d_xz|^2 = |q_xz|^2
+      const double b = c_xz.dot(d_xz);
+      const double disc = b * b - c_xz.squaredNorm() + q_xz.squaredNorm();
+      if (disc < 0.0) {
+        out.reject("point inside the circle the optical axis keeps clear of the tilt axis");
+        continue;
+      }
+      const double s = -b + std::sqrt(disc);  // the larger root: the point in front
+      if (s <= 0.0) {
+        out.reject("point behind the projector for every tilt");
+        continue;
+      }
+      const Eigen::Vector2d v_xz = c_xz + s * d_xz;
+      // Ry(t) turns (z, x) counter-clockwise by t: angle from v to q in (z, x) coordinates.
+      const double cross = v_xz.y() * q_xz.x() - v_xz.x() * q_xz.y();
+      const double dot = v_xz.y() * q_xz.y() + v_xz.x() * q_xz.x();
+      const double tilt = std::atan2(cross, dot);
+      if (pan < in.pan_min - 1e-12 || pan > in.pan_max + 1e-12) {
+        out.reject("needs pan " + fmt_deg(pan) + " deg outside [" + fmt_deg(in.pan_min) + ", " +
+                   fmt_deg(in.pan_max) + "] deg");
+        continue;
+      }
+      if (tilt < in.tilt_min - 1e-12 || tilt > in.tilt_max + 1e-12) {
+        out.reject("needs tilt " + fmt_deg(tilt) + " deg (positive looks down) outside [" +
+                   fmt_deg(in.tilt_min) + ", " + fmt_deg(in.tilt_max) + "] deg");
+        continue;
+      }
+      out.solutions.push_back({pan, tilt});
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
 // Closed form, in the pan joint frame (pan0: pan about z) and the tilt joint frame (tilt0 on the
 // pan link: tilt about y). With the tilt axis horizontal in the pan link and the optical axis
 // perpendicular to it, the optical axis always lies in the plane {y_tilt0 = h_c}; so
@@ -225,127 +350,46 @@ std::optional<JointAngles> HeadKinematics::aim_projector_at(const Eigen::Vector3
     if (why != nullptr) *why = reason;
     return std::nullopt;
   };
-  const double pan_min = deg_to_rad(pan_tilt_.pan_min_deg);
-  const double pan_max = deg_to_rad(pan_tilt_.pan_max_deg);
-  const double tilt_min = deg_to_rad(pan_tilt_.tilt_min_deg);
-  const double tilt_max = deg_to_rad(pan_tilt_.tilt_max_deg);
+  AimQuery query;
+  query.pan_min = deg_to_rad(pan_tilt_.pan_min_deg);
+  query.pan_max = deg_to_rad(pan_tilt_.pan_max_deg);
+  query.tilt_min = deg_to_rad(pan_tilt_.tilt_min_deg);
+  query.tilt_max = deg_to_rad(pan_tilt_.tilt_max_deg);
 
-  const Eigen::Vector3d p0 = pan_tilt_.T_base_pan0.inverse() * p_base;
-  const double r = std::hypot(p0.x(), p0.y());
-  const double phi = std::atan2(p0.y(), p0.x());
+  query.p0 = pan_tilt_.T_base_pan0.inverse() * p_base;
+  query.r = std::hypot(query.p0.x(), query.p0.y());
+  query.phi = std::atan2(query.p0.y(), query.p0.x());
 
   // Optical axis (centre c, unit direction d) in the projector's link frame.
-  const Eigen::Vector3d c_link = projector_mount_.T_link_body.translation();
-  const Eigen::Vector3d d_link = projector_mount_.T_link_body.linear().col(0).normalized();
+  query.c_link = projector_mount_.T_link_body.translation();
+  query.d_link = projector_mount_.T_link_body.linear().col(0).normalized();
 
-  std::vector<JointAngles> solutions;
-  // Every candidate's reason, so "out of reach" says what each way of reaching would need.
-  std::vector<std::string> rejections;
-  auto reject = [&rejections](const std::string& reason) {
-    if (std::find(rejections.begin(), rejections.end(), reason) == rejections.end()) {
-      rejections.push_back(reason);
-    }
-  };
-
+  AimCandidates candidates;
   if (projector_mount_.link == Link::pan) {
-    // One degree of freedom: the point must lie on the cone the axis sweeps. Pan so that the
-    // point is in the axis' vertical plane, then check its distance to the axis.
-    const Eigen::Vector2d d_h(d_link.x(), d_link.y());
-    if (d_h.norm() < kAxisTolerance)
-      return fail("projector on the pan link looks straight up/down");
-    const Eigen::Vector2d n_h = Eigen::Vector2d(-d_h.y(), d_h.x()).normalized();  // left of axis
-    const double h = n_h.dot(Eigen::Vector2d(c_link.x(), c_link.y()));
-    if (r < std::abs(h)) {
-      return fail("point " + fmt_m(r) +
-                  " m from the pan axis, inside the projector's lateral offset " +
-                  fmt_m(std::abs(h)) + " m");
-    }
-    const double alpha = std::atan2(n_h.y(), n_h.x());
-    double best_off_m = 1e300;
-    for (double sign : {1.0, -1.0}) {
-      const double psi = sign * std::acos(std::clamp(h / r, -1.0, 1.0));
-      for (double pan : pan_representatives(phi - alpha - psi, pan_min, pan_max)) {
-        const JointAngles q{pan, 0.0};
-        const Eigen::Vector3d p_pan = rot_z(pan).inverse() * p0;
-        const double s = (p_pan - c_link).dot(d_link);
-        const double off_m = ((p_pan - c_link) - s * d_link).norm();
-        if (s <= 0.0) continue;
-        best_off_m = std::min(best_off_m, off_m);
-        if (off_m > kPanOnlyTolerance_m) continue;
-        if (q.pan_rad < pan_min - 1e-12 || q.pan_rad > pan_max + 1e-12) {
-          reject("needs pan " + fmt_deg(pan) + " deg outside [" + fmt_deg(pan_min) + ", " +
-                 fmt_deg(pan_max) + "] deg");
-          continue;
-        }
-        solutions.push_back({pan, std::clamp(0.0, tilt_min, tilt_max)});
-      }
-    }
-    if (solutions.empty() && rejections.empty()) {
-      reject("projector on the pan link: tilt cannot raise or lower its axis, which passes " +
-             (best_off_m < 1e299 ? fmt_m(best_off_m) + " m" : std::string("nowhere near")) +
-             " from the point");
-    }
+    if (auto failure = aim_on_pan_link(query, candidates)) return fail(*failure);
   } else {
-    const Eigen::Isometry3d& T_pan_tilt0 = pan_tilt_.T_pan_tilt0;
-    const Eigen::Vector3d a = T_pan_tilt0.linear().col(1);  // tilt axis in the pan link
+    const Eigen::Vector3d a = pan_tilt_.T_pan_tilt0.linear().col(1);  // tilt axis in the pan link
     if (std::abs(a.z()) > kAxisTolerance) {
       return fail("tilt axis not perpendicular to the pan axis (closed form needs them so)");
     }
-    if (std::abs(d_link.y()) > kAxisTolerance) {
-      if (std::abs(d_link.y()) <= kMeasuredAxisTolerance) return aim_measured_mount(p_base, why);
+    if (std::abs(query.d_link.y()) > kAxisTolerance) {
+      if (std::abs(query.d_link.y()) <= kMeasuredAxisTolerance) {
+        return aim_measured_mount(p_base, why);
+      }
       return fail(
           "projector optical axis not perpendicular to the tilt axis (closed form needs it)");
     }
-    const Eigen::Vector3d t0 = T_pan_tilt0.translation();
-    const double h = a.dot(t0) + c_link.y();  // lateral offset of the optical axis' plane
-    if (r < std::abs(h)) {
-      return fail("point " + fmt_m(r) +
-                  " m from the pan axis, inside the optical axis' lateral offset " +
-                  fmt_m(std::abs(h)) + " m");
-    }
-    const double alpha = std::atan2(a.y(), a.x());
-    const Eigen::Vector2d c_xz(c_link.x(), c_link.z());
-    const Eigen::Vector2d d_xz = Eigen::Vector2d(d_link.x(), d_link.z()).normalized();
-    for (double sign : {1.0, -1.0}) {
-      const double psi = sign * std::acos(std::clamp(h / r, -1.0, 1.0));
-      for (double pan : pan_representatives(phi - alpha - psi, pan_min, pan_max)) {
-        const Eigen::Vector3d q3 = T_pan_tilt0.inverse() * (rot_z(pan).inverse() * p0);
-        const Eigen::Vector2d q_xz(q3.x(), q3.z());
-        // |c_xz + s d_xz|^2 = |q_xz|^2
-        const double b = c_xz.dot(d_xz);
-        const double disc = b * b - c_xz.squaredNorm() + q_xz.squaredNorm();
-        if (disc < 0.0) {
-          reject("point inside the circle the optical axis keeps clear of the tilt axis");
-          continue;
-        }
-        const double s = -b + std::sqrt(disc);  // the larger root: the point in front
-        if (s <= 0.0) {
-          reject("point behind the projector for every tilt");
-          continue;
-        }
-        const Eigen::Vector2d v_xz = c_xz + s * d_xz;
-        // Ry(t) turns (z, x) counter-clockwise by t: angle from v to q in (z, x) coordinates.
-        const double cross = v_xz.y() * q_xz.x() - v_xz.x() * q_xz.y();
-        const double dot = v_xz.y() * q_xz.y() + v_xz.x() * q_xz.x();
-        const double tilt = std::atan2(cross, dot);
-        if (pan < pan_min - 1e-12 || pan > pan_max + 1e-12) {
-          reject("needs pan " + fmt_deg(pan) + " deg outside [" + fmt_deg(pan_min) + ", " +
-                 fmt_deg(pan_max) + "] deg");
-          continue;
-        }
-        if (tilt < tilt_min - 1e-12 || tilt > tilt_max + 1e-12) {
-          reject("needs tilt " + fmt_deg(tilt) + " deg (positive looks down) outside [" +
-                 fmt_deg(tilt_min) + ", " + fmt_deg(tilt_max) + "] deg");
-          continue;
-        }
-        solutions.push_back({pan, tilt});
-      }
+    if (auto failure = aim_on_tilt_link(query, pan_tilt_.T_pan_tilt0, candidates)) {
+      return fail(*failure);
     }
   }
 
+  const std::vector<JointAngles>& solutions = candidates.solutions;
   if (solutions.empty()) {
     std::string reason;
-    for (const std::string& r2 : rejections) reason += (reason.empty() ? "" : "; or ") + r2;
+    for (const std::string& r2 : candidates.rejections) {
+      reason += (reason.empty() ? "" : "; or ") + r2;
+    }
     return fail(reason.empty() ? "no solution" : reason);
   }
   // The least head motion from straight ahead.

@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/structured_light/graycodepattern.hpp>
 #include <stdexcept>
+#include <vector>
 
 namespace projtour::light {
 
@@ -220,27 +221,19 @@ BoundaryBits boundary_bits(int blocks, int bits, int first_frame) {
   return b;
 }
 
-}  // namespace
+// Per region pixel, row-major: still decodable (bright enough lit, every bit's pattern and
+// inverse far enough apart), and the Gray codes built up bit by bit.
+struct PixelCodes {
+  std::vector<std::uint8_t> ok;
+  std::vector<std::uint32_t> column_code, row_code;
+};
 
-DecodeResult decode(const GrayCodeSequence& sequence, const std::vector<ColourFrame>& frames,
-                    const cv::Rect& roi_in) {
-  DecodeResult result;
-  result.problem = check_frames(sequence, frames);
-  if (!result.problem.empty()) return result;
-  const cv::Rect image(0, 0, frames.front().width, frames.front().height);
-  const cv::Rect roi = roi_in.empty() ? image : (roi_in & image);
-  if (roi.empty()) {
-    result.problem = "decode: the region of interest is outside the image";
-    return result;
-  }
-
+PixelCodes read_codes(const GrayCodeSequence& sequence, const std::vector<cv::Mat>& grey,
+                      std::size_t count, DecodeResult& result) {
   const GrayCodeSettings& settings = sequence.settings();
-  const std::vector<cv::Mat> grey = grey_planes(frames, roi);
-  const std::size_t count = static_cast<std::size_t>(roi.area());
-
-  // Per region pixel, row-major: still decodable, and the Gray codes built up bit by bit.
-  std::vector<std::uint8_t> ok(count);
-  std::vector<std::uint32_t> column_code(count, 0), row_code(count, 0);
+  PixelCodes codes{std::vector<std::uint8_t>(count), std::vector<std::uint32_t>(count, 0),
+                   std::vector<std::uint32_t>(count, 0)};
+  std::vector<std::uint8_t>& ok = codes.ok;
   {
     const std::uint8_t* white = grey[0].ptr<std::uint8_t>();
     const std::uint8_t* black = grey[1].ptr<std::uint8_t>();
@@ -254,23 +247,39 @@ DecodeResult decode(const GrayCodeSequence& sequence, const std::vector<ColourFr
   for (int bit = 0; bit < bits; ++bit) {
     const std::uint8_t* pattern = grey[static_cast<std::size_t>(2 + 2 * bit)].ptr<std::uint8_t>();
     const std::uint8_t* inverse = grey[static_cast<std::size_t>(3 + 2 * bit)].ptr<std::uint8_t>();
-    std::uint32_t* code = bit < column_bits ? column_code.data() : row_code.data();
+    std::uint32_t* code = bit < column_bits ? codes.column_code.data() : codes.row_code.data();
     for (std::size_t i = 0; i < count; ++i) {
       const int difference = pattern[i] - inverse[i];
       code[i] = (code[i] << 1) | static_cast<std::uint32_t>(difference > 0);
       ok[i] &= std::abs(difference) >= settings.min_bit_contrast;
     }
   }
+  return codes;
+}
 
-  // Each decoded pixel's block (-1 = none), then the pixels grouped by block (counting sort, so
-  // each block's pixels are contiguous and in raster order).
+// Each decoded pixel's block (-1 = none), then the pixels grouped by block (counting sort, so
+// each block's pixels are contiguous and in raster order): block b's are grouped[first[b],
+// first[b + 1]), at region pixels grouped_index[...].
+struct BlockPixels {
+  std::vector<std::int32_t> block_of;
+  std::vector<std::int32_t> first;
+  std::vector<Eigen::Vector2f> grouped;  // in image pixels
+  std::vector<std::int32_t> grouped_index;
+};
+
+BlockPixels group_by_block(const GrayCodeSequence& sequence, const PixelCodes& codes,
+                           const cv::Rect& roi, std::size_t count, DecodeResult& result) {
   const int columns = sequence.block_columns(), rows = sequence.block_rows();
   const std::size_t blocks = static_cast<std::size_t>(columns) * rows;
-  std::vector<std::int32_t> block_of(count, -1);
-  std::vector<std::int32_t> first(blocks + 1, 0);
+  BlockPixels out;
+  std::vector<std::int32_t>& block_of = out.block_of;
+  std::vector<std::int32_t>& first = out.first;
+  block_of.assign(count, -1);
+  first.assign(blocks + 1, 0);
   for (std::size_t i = 0; i < count; ++i) {
-    if (!ok[i]) continue;
-    const std::uint32_t c = gray_to_binary(column_code[i]), r = gray_to_binary(row_code[i]);
+    if (!codes.ok[i]) continue;
+    const std::uint32_t c = gray_to_binary(codes.column_code[i]);
+    const std::uint32_t r = gray_to_binary(codes.row_code[i]);
     if (c >= static_cast<std::uint32_t>(columns) || r >= static_cast<std::uint32_t>(rows)) continue;
     block_of[i] = static_cast<std::int32_t>(r * columns + c);
     ++first[static_cast<std::size_t>(block_of[i]) + 1];
@@ -281,65 +290,77 @@ DecodeResult decode(const GrayCodeSequence& sequence, const std::vector<ColourFr
     return Eigen::Vector2f(static_cast<float>(roi.x + static_cast<int>(i % roi.width)),
                            static_cast<float>(roi.y + static_cast<int>(i / roi.width)));
   };
-  std::vector<Eigen::Vector2f> grouped(static_cast<std::size_t>(result.decoded_pixels));
-  std::vector<std::int32_t> grouped_index(grouped.size());
-  {
-    std::vector<std::int32_t> next(first.begin(), first.end() - 1);
-    for (std::size_t i = 0; i < count; ++i) {
-      if (block_of[i] < 0) continue;
-      const auto slot = static_cast<std::size_t>(next[static_cast<std::size_t>(block_of[i])]++);
-      grouped[slot] = pixel_of(i);
-      grouped_index[slot] = static_cast<std::int32_t>(i);
-    }
+  out.grouped.resize(static_cast<std::size_t>(result.decoded_pixels));
+  out.grouped_index.resize(out.grouped.size());
+  std::vector<std::int32_t> next(first.begin(), first.end() - 1);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (block_of[i] < 0) continue;
+    const auto slot = static_cast<std::size_t>(next[static_cast<std::size_t>(block_of[i])]++);
+    out.grouped[slot] = pixel_of(i);
+    out.grouped_index[slot] = static_cast<std::int32_t>(i);
   }
+  return out;
+}
 
-  const int min_pixels = std::max(1, settings.min_pixels_per_block);
-  std::vector<Spot> spots(blocks);
-  {
-    std::vector<float> scratch;
-    for (std::size_t b = 0; b < blocks; ++b) {
-      spots[b] = find_spot(grouped.data() + first[b], first[b + 1] - first[b], min_pixels, scratch);
-    }
-  }
+// What the centroid by coverage reads for one region pixel: the frames' grey planes and the
+// inverse of its white-black contrast.
+struct Coverage {
+  const std::vector<cv::Mat>& grey;
+  std::vector<float> inverse_contrast;
 
-  // The centroid by coverage: a pixel across a block boundary counts for each block by the
-  // fraction of it on that block's side (from the bit that flips there), so the centroid is that
-  // of the block's footprint rather than of the whole pixels it won, which would be off by up to
-  // half a pixel with the phase of the block grid against the pixel grid. Pixels outside a
-  // block's spot count for it not at all.
-  const BoundaryBits along_u = boundary_bits(columns, column_bits, 2);
-  const BoundaryBits along_v = boundary_bits(rows, sequence.row_bits(), 2 + 2 * column_bits);
-  std::vector<float> inverse_contrast(count, 0.0f);
-  {
-    const std::uint8_t* white = grey[0].ptr<std::uint8_t>();
-    const std::uint8_t* black = grey[1].ptr<std::uint8_t>();
-    for (std::size_t i = 0; i < count; ++i) {
-      if (block_of[i] >= 0) inverse_contrast[i] = 1.0f / static_cast<float>(white[i] - black[i]);
-    }
-  }
   // The share of pixel i on the far side of the boundary held in `frame` (-1: none).
-  const auto across = [&](std::size_t i, int frame, int sign) {
+  float across(std::size_t i, int frame, int sign) const {
     if (frame < 0) return 0.0f;
     const int difference = grey[static_cast<std::size_t>(frame)].ptr<std::uint8_t>()[i] -
                            grey[static_cast<std::size_t>(frame) + 1].ptr<std::uint8_t>()[i];
     const float own = 0.5f * (1.0f + static_cast<float>(sign * difference) * inverse_contrast[i]);
     return 1.0f - std::clamp(own, 0.0f, 1.0f);
-  };
-  const auto shares = [&](std::size_t i, const BoundaryBits& axis, int index) {
+  }
+  // Pixel i's shares on the block before, on the block `index` itself and on the block after.
+  std::array<float, 3> shares(std::size_t i, const BoundaryBits& axis, int index) const {
     const auto k = static_cast<std::size_t>(index);
     const float before = across(i, axis.frame_before[k], axis.sign_before[k]);
     const float after = across(i, axis.frame_after[k], axis.sign_after[k]);
     return std::array<float, 3>{before, std::max(0.0f, 1.0f - before - after), after};
-  };
-  std::vector<Eigen::Vector3d> sums(blocks, Eigen::Vector3d::Zero());  // weight, weight * (u, v)
+  }
+};
+
+// The centroid by coverage: a pixel across a block boundary counts for each block by the
+// fraction of it on that block's side (from the bit that flips there), so the centroid is that
+// of the block's footprint rather than of the whole pixels it won, which would be off by up to
+// half a pixel with the phase of the block grid against the pixel grid. Pixels outside a
+// block's spot count for it not at all. Per block: weight, weight * (u, v).
+std::vector<Eigen::Vector3d> coverage_sums(const GrayCodeSequence& sequence,
+                                           const std::vector<cv::Mat>& grey,
+                                           const BlockPixels& pixels,
+                                           const std::vector<Spot>& spots) {
+  const int columns = sequence.block_columns(), rows = sequence.block_rows();
+  const int column_bits = sequence.column_bits();
+  const std::size_t blocks = spots.size();
+  const std::size_t count = pixels.block_of.size();
+  const BoundaryBits along_u = boundary_bits(columns, column_bits, 2);
+  const BoundaryBits along_v = boundary_bits(rows, sequence.row_bits(), 2 + 2 * column_bits);
+  Coverage coverage{grey, std::vector<float>(count, 0.0f)};
+  {
+    const std::uint8_t* white = grey[0].ptr<std::uint8_t>();
+    const std::uint8_t* black = grey[1].ptr<std::uint8_t>();
+    for (std::size_t i = 0; i < count; ++i) {
+      if (pixels.block_of[i] >= 0) {
+        coverage.inverse_contrast[i] = 1.0f / static_cast<float>(white[i] - black[i]);
+      }
+    }
+  }
+  std::vector<Eigen::Vector3d> sums(blocks, Eigen::Vector3d::Zero());
+  const std::vector<std::int32_t>& first = pixels.first;
   for (std::size_t b = 0; b < blocks; ++b) {
     if (!spots[b].found) continue;
     const int column = static_cast<int>(b % columns), row = static_cast<int>(b / columns);
     for (int slot = first[b]; slot < first[b + 1]; ++slot) {
-      const Eigen::Vector2f& p = grouped[static_cast<std::size_t>(slot)];
+      const Eigen::Vector2f& p = pixels.grouped[static_cast<std::size_t>(slot)];
       if (!spots[b].holds(p)) continue;
-      const auto i = static_cast<std::size_t>(grouped_index[static_cast<std::size_t>(slot)]);
-      const std::array<float, 3> wu = shares(i, along_u, column), wv = shares(i, along_v, row);
+      const auto i = static_cast<std::size_t>(pixels.grouped_index[static_cast<std::size_t>(slot)]);
+      const std::array<float, 3> wu = coverage.shares(i, along_u, column);
+      const std::array<float, 3> wv = coverage.shares(i, along_v, row);
       for (int dv = -1; dv <= 1; ++dv) {
         for (int du = -1; du <= 1; ++du) {
           const float w =
@@ -353,18 +374,26 @@ DecodeResult decode(const GrayCodeSequence& sequence, const std::vector<ColourFr
       }
     }
   }
+  return sums;
+}
 
-  // A block cut short -- by the region's border, a shadow, the target's rim or the mask -- has
-  // the centroid of the part seen, not of the block's centre. Kept are the blocks inside the
-  // decoded area: clear of the region's border, with all four neighbours decoded beside them in
-  // the image (the neighbour beyond a target's rim is decoded too, but on the background,
-  // displaced by the parallax), and with a footprint close to those of the blocks around them,
-  // which change only slowly with the surface's slant.
+// A block cut short -- by the region's border, a shadow, the target's rim or the mask -- has
+// the centroid of the part seen, not of the block's centre. Kept are the blocks inside the
+// decoded area: clear of the region's border, with all four neighbours decoded beside them in
+// the image (the neighbour beyond a target's rim is decoded too, but on the background,
+// displaced by the parallax), and with a footprint close to those of the blocks around them,
+// which change only slowly with the surface's slant.
+void keep_whole_blocks(const GrayCodeSequence& sequence, const cv::Rect& roi,
+                       const BlockPixels& pixels, const std::vector<Spot>& spots,
+                       const std::vector<Eigen::Vector3d>& sums, DecodeResult& result) {
+  const int columns = sequence.block_columns(), rows = sequence.block_rows();
+  const std::size_t blocks = spots.size();
+  const std::vector<std::int32_t>& first = pixels.first;
   std::vector<std::uint8_t> usable(blocks, 0);
   for (std::size_t b = 0; b < blocks; ++b) {
     usable[b] = spots[b].found && sums[b].x() > 0.0;
     for (int slot = first[b]; slot < first[b + 1] && usable[b]; ++slot) {
-      const Eigen::Vector2f& p = grouped[static_cast<std::size_t>(slot)];
+      const Eigen::Vector2f& p = pixels.grouped[static_cast<std::size_t>(slot)];
       usable[b] = !(spots[b].holds(p) &&
                     (p.x() <= roi.x || p.y() <= roi.y || p.x() >= roi.x + roi.width - 1 ||
                      p.y() >= roi.y + roi.height - 1));
@@ -404,6 +433,39 @@ DecodeResult decode(const GrayCodeSequence& sequence, const std::vector<ColourFr
     block.pixels = spots[b].kept;
     result.blocks.push_back(block);
   }
+}
+
+}  // namespace
+
+DecodeResult decode(const GrayCodeSequence& sequence, const std::vector<ColourFrame>& frames,
+                    const cv::Rect& roi_in) {
+  DecodeResult result;
+  result.problem = check_frames(sequence, frames);
+  if (!result.problem.empty()) return result;
+  const cv::Rect image(0, 0, frames.front().width, frames.front().height);
+  const cv::Rect roi = roi_in.empty() ? image : (roi_in & image);
+  if (roi.empty()) {
+    result.problem = "decode: the region of interest is outside the image";
+    return result;
+  }
+
+  const std::vector<cv::Mat> grey = grey_planes(frames, roi);
+  const std::size_t count = static_cast<std::size_t>(roi.area());
+  const BlockPixels pixels =
+      group_by_block(sequence, read_codes(sequence, grey, count, result), roi, count, result);
+
+  const std::size_t blocks = pixels.first.size() - 1;
+  const int min_pixels = std::max(1, sequence.settings().min_pixels_per_block);
+  std::vector<Spot> spots(blocks);
+  {
+    std::vector<float> scratch;
+    for (std::size_t b = 0; b < blocks; ++b) {
+      spots[b] = find_spot(pixels.grouped.data() + pixels.first[b],
+                           pixels.first[b + 1] - pixels.first[b], min_pixels, scratch);
+    }
+  }
+  const std::vector<Eigen::Vector3d> sums = coverage_sums(sequence, grey, pixels, spots);
+  keep_whole_blocks(sequence, roi, pixels, spots, sums, result);
   return result;
 }
 

@@ -10,7 +10,9 @@
 #include <cstdint>
 #include <limits>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <stdexcept>
+#include <vector>
 
 namespace projtour::light {
 
@@ -45,19 +47,16 @@ int bin_of(double angle_rad) {
   return static_cast<int>(std::lround(a / (kPi / kBins))) % kBins;
 }
 
-}  // namespace
+// The model's outline: the near side of every depth step, with its normal and orientation bin,
+// thinned to kMaxOutlinePixels, and its bounding box.
+struct ModelOutline {
+  std::vector<OutlinePixel> pixels;
+  int lo_u, lo_v, hi_u, hi_v;
+};
 
-std::optional<OutlineMatch> match_outline(const ColourFrame& frame,
-                                          const std::vector<float>& model_depth,
+// nullopt when the model is not in view or its outline is shorter than min_outline_pixels.
+std::optional<ModelOutline> model_outline(const std::vector<float>& model_depth, int w, int h,
                                           const OutlineSettings& s) {
-  const int w = frame.width, h = frame.height;
-  if (w <= 2 || h <= 2 || frame.bgr.size() != static_cast<std::size_t>(w) * h * 3 ||
-      model_depth.size() != static_cast<std::size_t>(w) * h) {
-    throw std::invalid_argument("match_outline: the frame and the model's depth image differ");
-  }
-  if (s.search_px < 1 || !(s.truncate_px > 0) || !(s.match_px > 0) || !(s.depth_step_m > 0)) {
-    throw std::invalid_argument("match_outline: settings out of range");
-  }
   // The model's depth with "far" where there is no model, so the silhouette is a depth step like
   // any other and its normal is the depth's gradient.
   float far = 0.0f;
@@ -75,8 +74,7 @@ std::optional<OutlineMatch> match_outline(const ColourFrame& frame,
   cv::Mat gx, gy;
   cv::Sobel(depth, gx, CV_32F, 1, 0, 3);
   cv::Sobel(depth, gy, CV_32F, 0, 1, 3);
-  std::vector<OutlinePixel> outline;
-  int lo_u = w, lo_v = h, hi_u = -1, hi_v = -1;
+  ModelOutline outline{{}, w, h, -1, -1};
   const float step = static_cast<float>(s.depth_step_m);
   for (int v = 1; v < h - 1; ++v) {
     for (int u = 1; u < w - 1; ++u) {
@@ -88,29 +86,42 @@ std::optional<OutlineMatch> match_outline(const ColourFrame& frame,
           depth.at<float>(v - 1, u) - z > step || depth.at<float>(v + 1, u) - z > step;
       if (!edge) continue;
       const double a = std::atan2(gy.at<float>(v, u), gx.at<float>(v, u));
-      outline.push_back({u, v, bin_of(a), Eigen::Vector2d(std::cos(a), std::sin(a))});
-      lo_u = std::min(lo_u, u);
-      lo_v = std::min(lo_v, v);
-      hi_u = std::max(hi_u, u);
-      hi_v = std::max(hi_v, v);
+      outline.pixels.push_back({u, v, bin_of(a), Eigen::Vector2d(std::cos(a), std::sin(a))});
+      outline.lo_u = std::min(outline.lo_u, u);
+      outline.lo_v = std::min(outline.lo_v, v);
+      outline.hi_u = std::max(outline.hi_u, u);
+      outline.hi_v = std::max(outline.hi_v, v);
     }
   }
-  if (static_cast<int>(outline.size()) < s.min_outline_pixels) return std::nullopt;
-  if (static_cast<int>(outline.size()) > kMaxOutlinePixels) {
+  if (static_cast<int>(outline.pixels.size()) < s.min_outline_pixels) return std::nullopt;
+  if (static_cast<int>(outline.pixels.size()) > kMaxOutlinePixels) {
     std::vector<OutlinePixel> thinned;
-    const double stride = static_cast<double>(outline.size()) / kMaxOutlinePixels;
+    const double stride = static_cast<double>(outline.pixels.size()) / kMaxOutlinePixels;
     for (int i = 0; i < kMaxOutlinePixels; ++i) {
-      thinned.push_back(outline[static_cast<std::size_t>(i * stride)]);
+      thinned.push_back(outline.pixels[static_cast<std::size_t>(i * stride)]);
     }
-    outline = std::move(thinned);
+    outline.pixels = std::move(thinned);
   }
+  return outline;
+}
 
-  // The image's edges around the outline, as far as the search reaches, split by orientation;
-  // an edge counts for the two orientation bins either side of its angle.
+// The image's edges around the outline, as far as the search reaches, split by orientation: per
+// bin, zero on its edges, and each pixel's distance to the nearest of them. An edge counts for
+// the two orientation bins either side of its angle.
+struct ImageEdges {
+  cv::Rect roi;  // in the image; the maps' pixels are the roi's
+  std::array<cv::Mat, kBins> not_edge, distance;
+};
+
+ImageEdges image_edges(const ColourFrame& frame, const ModelOutline& outline,
+                       const OutlineSettings& s) {
+  const int w = frame.width, h = frame.height;
   const int reach = s.search_px + static_cast<int>(std::ceil(s.truncate_px)) + 2;
-  const cv::Rect roi = cv::Rect(lo_u - reach, lo_v - reach, hi_u - lo_u + 1 + 2 * reach,
-                                hi_v - lo_v + 1 + 2 * reach) &
-                       cv::Rect(0, 0, w, h);
+  ImageEdges out;
+  const cv::Rect roi = out.roi = cv::Rect(outline.lo_u - reach, outline.lo_v - reach,
+                                          outline.hi_u - outline.lo_u + 1 + 2 * reach,
+                                          outline.hi_v - outline.lo_v + 1 + 2 * reach) &
+                                 cv::Rect(0, 0, w, h);
   const cv::Mat bgr(h, w, CV_8UC3, const_cast<std::uint8_t*>(frame.bgr.data()));
   cv::Mat grey;
   cv::cvtColor(bgr(roi), grey, cv::COLOR_BGR2GRAY);
@@ -124,8 +135,7 @@ std::optional<OutlineMatch> match_outline(const ColourFrame& frame,
   std::nth_element(levels.begin(), levels.begin() + levels.size() / 2, levels.end());
   const double high = std::max(kCannyHighFloor, kCannyHighOverMedian * levels[levels.size() / 2]);
   cv::Canny(dx, dy, edges, kCannyLowOverHigh * high, high, true);
-  std::array<cv::Mat, kBins> not_edge;
-  for (auto& m : not_edge) m = cv::Mat(roi.size(), CV_8U, cv::Scalar(255));
+  for (auto& m : out.not_edge) m = cv::Mat(roi.size(), CV_8U, cv::Scalar(255));
   for (int v = 0; v < roi.height; ++v) {
     for (int u = 0; u < roi.width; ++u) {
       if (!edges.at<std::uint8_t>(v, u)) continue;
@@ -133,80 +143,106 @@ std::optional<OutlineMatch> match_outline(const ColourFrame& frame,
       a = std::fmod(a, kPi);
       if (a < 0) a += kPi;
       const int below = static_cast<int>(std::floor(a / (kPi / kBins))) % kBins;
-      not_edge[below].at<std::uint8_t>(v, u) = 0;
-      not_edge[(below + 1) % kBins].at<std::uint8_t>(v, u) = 0;
+      out.not_edge[below].at<std::uint8_t>(v, u) = 0;
+      out.not_edge[(below + 1) % kBins].at<std::uint8_t>(v, u) = 0;
     }
   }
-  std::array<cv::Mat, kBins> distance;
   for (int b = 0; b < kBins; ++b) {
-    cv::distanceTransform(not_edge[b], distance[b], cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    cv::distanceTransform(out.not_edge[b], out.distance[b], cv::DIST_L2, cv::DIST_MASK_PRECISE);
   }
+  return out;
+}
 
-  const float truncate = static_cast<float>(s.truncate_px);
-  const auto cost = [&](int du, int dv) {
-    double sum = 0.0;
-    for (const OutlinePixel& p : outline) {
-      const int u = p.u + du - roi.x, v = p.v + dv - roi.y;
-      if (u < 0 || v < 0 || u >= roi.width || v >= roi.height) {
-        sum += truncate;
-        continue;
-      }
-      sum += std::min(distance[p.bin].at<float>(v, u), truncate);
+// The outline shifted by (du, dv): its pixels' mean distance to an edge of their orientation,
+// each truncated at `truncate`.
+double shift_cost(const std::vector<OutlinePixel>& outline, const ImageEdges& edges, float truncate,
+                  int du, int dv) {
+  const cv::Rect& roi = edges.roi;
+  double sum = 0.0;
+  for (const OutlinePixel& p : outline) {
+    const int u = p.u + du - roi.x, v = p.v + dv - roi.y;
+    if (u < 0 || v < 0 || u >= roi.width || v >= roi.height) {
+      sum += truncate;
+      continue;
     }
-    return sum / outline.size();
-  };
-  // Coarse (every second shift), then every shift around the best, then a parabola per axis.
-  double best = std::numeric_limits<double>::infinity();
-  int best_u = 0, best_v = 0;
+    sum += std::min(edges.distance[p.bin].at<float>(v, u), truncate);
+  }
+  return sum / outline.size();
+}
+
+// The whole-pixel shift of least cost: coarse (every second shift), then every shift around the
+// best.
+struct GridBest {
+  double cost = std::numeric_limits<double>::infinity();
+  int u = 0, v = 0;
+};
+
+GridBest grid_search(const std::vector<OutlinePixel>& outline, const ImageEdges& edges,
+                     const OutlineSettings& s) {
+  const float truncate = static_cast<float>(s.truncate_px);
+  GridBest best;
   for (int dv = -s.search_px; dv <= s.search_px; dv += 2) {
     for (int du = -s.search_px; du <= s.search_px; du += 2) {
-      const double c = cost(du, dv);
+      const double c = shift_cost(outline, edges, truncate, du, dv);
       // Ties go to the smaller shift: a featureless stretch must not drag the answer outward.
-      if (c < best - 1e-9 ||
-          (std::abs(c - best) <= 1e-9 && du * du + dv * dv < best_u * best_u + best_v * best_v)) {
-        best = c;
-        best_u = du;
-        best_v = dv;
+      if (c < best.cost - 1e-9 || (std::abs(c - best.cost) <= 1e-9 &&
+                                   du * du + dv * dv < best.u * best.u + best.v * best.v)) {
+        best.cost = c;
+        best.u = du;
+        best.v = dv;
       }
     }
   }
-  const int coarse_u = best_u, coarse_v = best_v;
+  const int coarse_u = best.u, coarse_v = best.v;
   for (int dv = coarse_v - 1; dv <= coarse_v + 1; ++dv) {
     for (int du = coarse_u - 1; du <= coarse_u + 1; ++du) {
-      const double c = cost(du, dv);
-      if (c < best - 1e-9) {
-        best = c;
-        best_u = du;
-        best_v = dv;
+      const double c = shift_cost(outline, edges, truncate, du, dv);
+      if (c < best.cost - 1e-9) {
+        best.cost = c;
+        best.u = du;
+        best.v = dv;
       }
     }
   }
-  // Sub-pixel, and only where the outline says anything: each outline pixel measures the shift
-  // along its own normal (the nearest edge of its orientation on that line); the normal equations
-  // show which image directions the outline fixes. A pillar's two upright sides say nothing of
-  // up and down, and the answer keeps nothing there.
-  // How far along its normal from `p` moved by `shift` the nearest edge of its orientation lies.
-  const auto edge_along = [&](const OutlinePixel& p,
-                              const Eigen::Vector2d& shift) -> std::optional<double> {
-    const Eigen::Vector2d at = Eigen::Vector2d(p.u - roi.x, p.v - roi.y) + shift;
-    for (int k = 0; k <= 2 * kNormalReachHalfPx; ++k) {
-      // 0, +0.5, -0.5, +1, -1, ...: the nearest edge wins.
-      const double t = (k % 2 == 1 ? 1.0 : -1.0) * 0.5 * ((k + 1) / 2);
-      const Eigen::Vector2d q = at + t * p.normal;
-      const int u = static_cast<int>(std::lround(q.x())), v = static_cast<int>(std::lround(q.y()));
-      if (u < 0 || v < 0 || u >= roi.width || v >= roi.height) continue;
-      if (not_edge[p.bin].at<std::uint8_t>(v, u) == 0) return t;
-    }
-    return std::nullopt;
-  };
-  Eigen::Vector2d shift(best_u, best_v);
-  Eigen::Matrix2d projector_onto_fixed = Eigen::Matrix2d::Zero();
+  return best;
+}
+
+// How far along its normal from `p` moved by `shift` the nearest edge of its orientation lies.
+std::optional<double> edge_along(const OutlinePixel& p, const Eigen::Vector2d& shift,
+                                 const ImageEdges& edges) {
+  const cv::Rect& roi = edges.roi;
+  const Eigen::Vector2d at = Eigen::Vector2d(p.u - roi.x, p.v - roi.y) + shift;
+  for (int k = 0; k <= 2 * kNormalReachHalfPx; ++k) {
+    // 0, +0.5, -0.5, +1, -1, ...: the nearest edge wins.
+    const double t = (k % 2 == 1 ? 1.0 : -1.0) * 0.5 * ((k + 1) / 2);
+    const Eigen::Vector2d q = at + t * p.normal;
+    const int u = static_cast<int>(std::lround(q.x())), v = static_cast<int>(std::lround(q.y()));
+    if (u < 0 || v < 0 || u >= roi.width || v >= roi.height) continue;
+    if (edges.not_edge[p.bin].at<std::uint8_t>(v, u) == 0) return t;
+  }
+  return std::nullopt;
+}
+
+// Sub-pixel, and only where the outline says anything: each outline pixel measures the shift
+// along its own normal (the nearest edge of its orientation on that line); the normal equations
+// show which image directions the outline fixes. A pillar's two upright sides say nothing of
+// up and down, and the answer keeps nothing there.
+struct SubPixelShift {
+  Eigen::Vector2d shift;
+  Eigen::Matrix2d projector_onto_fixed = Eigen::Matrix2d::Zero();  // onto the fixed directions
+};
+
+SubPixelShift sub_pixel_shift(const std::vector<OutlinePixel>& outline, const ImageEdges& edges,
+                              const GridBest& grid, const OutlineSettings& s) {
+  SubPixelShift out{Eigen::Vector2d(grid.u, grid.v)};
+  Eigen::Vector2d& shift = out.shift;
+  Eigen::Matrix2d& projector_onto_fixed = out.projector_onto_fixed;
   for (int iteration = 0; iteration < 3; ++iteration) {
     Eigen::Matrix2d A = Eigen::Matrix2d::Zero();
     Eigen::Vector2d b = Eigen::Vector2d::Zero();
     int used = 0;
     for (const OutlinePixel& p : outline) {
-      const std::optional<double> along = edge_along(p, shift);
+      const std::optional<double> along = edge_along(p, shift, edges);
       if (!along) continue;
       A += p.normal * p.normal.transpose();
       b += *along * p.normal;
@@ -225,53 +261,91 @@ std::optional<OutlineMatch> match_outline(const ColourFrame& frame,
     shift += step;
     if (step.norm() < 0.05) break;
   }
-  OutlineMatch out;
-  // The turn: each outline pixel's distance to its edge at the shift, against a rotation about
-  // the outline's centroid together with a residual shift (so an outline matched unevenly
-  // around the centroid does not pass its shift off as a turn).
-  if (std::lround(projector_onto_fixed.trace()) == 2) {
-    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-    for (const OutlinePixel& p : outline) centre += Eigen::Vector2d(p.u, p.v);
-    centre /= static_cast<double>(outline.size());
-    // One step, first order in the turn: looked at again from its answer, the turn wanders by
-    // a tenth of a degree with the edges' pixel steps and is no nearer the truth.
-    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d b = Eigen::Vector3d::Zero();
-    double extent = 0.0;
-    int used = 0;
-    for (const OutlinePixel& p : outline) {
-      const std::optional<double> along = edge_along(p, shift);
-      if (!along) continue;
-      const Eigen::Vector2d r = Eigen::Vector2d(p.u, p.v) - centre;
-      const Eigen::Vector3d j(p.normal.x(), p.normal.y(),
-                              p.normal.dot(Eigen::Vector2d(-r.y(), r.x())));
-      A += j * j.transpose();
-      b += *along * j;
-      extent += r.squaredNorm();
-      ++used;
-    }
-    // The turn's information against what the outline's size would give if every normal were
-    // tangent to the circle about the centre: a thin or ragged outline says little of it.
-    if (used >= s.min_outline_pixels && A(2, 2) >= kMinFixedShare * extent) {
-      const Eigen::Vector3d x = A.ldlt().solve(b);
-      if (x.allFinite()) {
-        out.rotation_rad = x.z();
-        out.centre_px = centre;
-      }
+  return out;
+}
+
+// The turn: each outline pixel's distance to its edge at the shift, against a rotation about
+// the outline's centroid together with a residual shift (so an outline matched unevenly
+// around the centroid does not pass its shift off as a turn). Sets out's rotation and centre
+// when the outline says enough of it.
+void outline_turn(const std::vector<OutlinePixel>& outline, const ImageEdges& edges,
+                  const Eigen::Vector2d& shift, const OutlineSettings& s, OutlineMatch& out) {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (const OutlinePixel& p : outline) centre += Eigen::Vector2d(p.u, p.v);
+  centre /= static_cast<double>(outline.size());
+  // One step, first order in the turn: looked at again from its answer, the turn wanders by
+  // a tenth of a degree with the edges' pixel steps and is no nearer the truth.
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  double extent = 0.0;
+  int used = 0;
+  for (const OutlinePixel& p : outline) {
+    const std::optional<double> along = edge_along(p, shift, edges);
+    if (!along) continue;
+    const Eigen::Vector2d r = Eigen::Vector2d(p.u, p.v) - centre;
+    const Eigen::Vector3d j(p.normal.x(), p.normal.y(),
+                            p.normal.dot(Eigen::Vector2d(-r.y(), r.x())));
+    A += j * j.transpose();
+    b += *along * j;
+    extent += r.squaredNorm();
+    ++used;
+  }
+  // The turn's information against what the outline's size would give if every normal were
+  // tangent to the circle about the centre: a thin or ragged outline says little of it.
+  if (used >= s.min_outline_pixels && A(2, 2) >= kMinFixedShare * extent) {
+    const Eigen::Vector3d x = A.ldlt().solve(b);
+    if (x.allFinite()) {
+      out.rotation_rad = x.z();
+      out.centre_px = centre;
     }
   }
-  out.shift_px = projector_onto_fixed * shift;
-  out.fixed_directions = static_cast<int>(std::lround(projector_onto_fixed.trace()));
-  out.cost_px = best;
-  out.cost_at_zero_px = cost(0, 0);
-  out.outline_pixels = static_cast<int>(outline.size());
+}
+
+// The share of the outline's pixels within match_px of an edge of their orientation at the
+// whole-pixel shift.
+double matched_fraction(const std::vector<OutlinePixel>& outline, const ImageEdges& edges,
+                        const GridBest& grid, const OutlineSettings& s) {
+  const cv::Rect& roi = edges.roi;
   int matched = 0;
   for (const OutlinePixel& p : outline) {
-    const int u = p.u + best_u - roi.x, v = p.v + best_v - roi.y;
+    const int u = p.u + grid.u - roi.x, v = p.v + grid.v - roi.y;
     if (u < 0 || v < 0 || u >= roi.width || v >= roi.height) continue;
-    matched += distance[p.bin].at<float>(v, u) <= s.match_px;
+    matched += edges.distance[p.bin].at<float>(v, u) <= s.match_px;
   }
-  out.matched_fraction = static_cast<double>(matched) / outline.size();
+  return static_cast<double>(matched) / outline.size();
+}
+
+}  // namespace
+
+std::optional<OutlineMatch> match_outline(const ColourFrame& frame,
+                                          const std::vector<float>& model_depth,
+                                          const OutlineSettings& s) {
+  const int w = frame.width, h = frame.height;
+  if (w <= 2 || h <= 2 || frame.bgr.size() != static_cast<std::size_t>(w) * h * 3 ||
+      model_depth.size() != static_cast<std::size_t>(w) * h) {
+    throw std::invalid_argument("match_outline: the frame and the model's depth image differ");
+  }
+  if (s.search_px < 1 || !(s.truncate_px > 0) || !(s.match_px > 0) || !(s.depth_step_m > 0)) {
+    throw std::invalid_argument("match_outline: settings out of range");
+  }
+  const std::optional<ModelOutline> model = model_outline(model_depth, w, h, s);
+  if (!model) return std::nullopt;
+  const std::vector<OutlinePixel>& outline = model->pixels;
+  const ImageEdges edges = image_edges(frame, *model, s);
+  // The whole-pixel search, then the sub-pixel shift and the turn from the edges along the
+  // outline's normals.
+  const GridBest grid = grid_search(outline, edges, s);
+  const SubPixelShift fine = sub_pixel_shift(outline, edges, grid, s);
+  OutlineMatch out;
+  if (std::lround(fine.projector_onto_fixed.trace()) == 2) {
+    outline_turn(outline, edges, fine.shift, s, out);
+  }
+  out.shift_px = fine.projector_onto_fixed * fine.shift;
+  out.fixed_directions = static_cast<int>(std::lround(fine.projector_onto_fixed.trace()));
+  out.cost_px = grid.cost;
+  out.cost_at_zero_px = shift_cost(outline, edges, static_cast<float>(s.truncate_px), 0, 0);
+  out.outline_pixels = static_cast<int>(outline.size());
+  out.matched_fraction = matched_fraction(outline, edges, grid, s);
   return out;
 }
 
