@@ -30,10 +30,10 @@ run: build
 	$(BUILD_DIR)/projtour run missions/demo_tour.yaml --dry-run --world $(WORLD_FILE) --seed $(SEED) --out $(RUN_DIR)
 
 # The monitor's browser tests drive Chromium with puppeteer-core, from the npm registry:
-# installed from tests/monitor/package-lock.json when node_modules is missing or older.
-MONITOR_NODE_MODULES = tests/monitor/node_modules/.package-lock.json
-$(MONITOR_NODE_MODULES): tests/monitor/package-lock.json
-	@if command -v npm >/dev/null; then npm ci --prefix tests/monitor --no-audit --no-fund; \
+# installed from tests/executor/views/monitor/package-lock.json when node_modules is missing or older.
+MONITOR_NODE_MODULES = tests/executor/views/monitor/node_modules/.package-lock.json
+$(MONITOR_NODE_MODULES): tests/executor/views/monitor/package-lock.json
+	@if command -v npm >/dev/null; then npm ci --prefix tests/executor/views/monitor --no-audit --no-fund; \
 	else echo "no npm: the monitor's browser tests will be skipped"; fi
 
 # test_foxglove_peer's ROS 2 node (@foxglove/ros2 under Node.js, not built on Cyclone): installed

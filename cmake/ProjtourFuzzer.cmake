@@ -47,7 +47,7 @@ function(projtour_add_fuzzer)
   # as system headers (their warnings are not ours). nlohmann_json's target is found in
   # executor/ and is not visible here: its headers are where the compiler looks anyway.
   set(include_flags -I${PROJECT_SOURCE_DIR}/core/contract/include
-    -I${PROJECT_SOURCE_DIR}/core/host/include -I${PROJECT_SOURCE_DIR}/executor/include
+    -I${PROJECT_SOURCE_DIR}/core/host/include -I${PROJECT_SOURCE_DIR}/executor/json/include -I${PROJECT_SOURCE_DIR}/executor/record/include -I${PROJECT_SOURCE_DIR}/executor/machine/include
     -I${CMAKE_BINARY_DIR}/core/contract/include)
   set(include_dirs ${OpenCV_INCLUDE_DIRS})
   foreach(dep Eigen3::Eigen yaml-cpp)

@@ -32,7 +32,7 @@ WORLD = os.path.join(ROOT, "missions", "demo_world.yaml")
 
 def claim_dds_domain():
     """A domain no test or benchmark of this machine holds: the same lock files as
-    tests/ros2/ros2_test_domain.hpp and tests/bench/bench_ros2.cpp, held while the script runs."""
+    tests/plugins/drivers/ros2/ros2_test_domain.hpp and tests/bench/bench_ros2.cpp, held while the script runs."""
     start = (os.getpid() + 31) % 200
     for i in range(200):
         d = 1 + (start + i) % 200

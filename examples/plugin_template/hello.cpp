@@ -2,7 +2,7 @@
 // Copy this folder to start a plugin of your own.
 #include <string>
 
-#include "projtour/plugin_author.hpp"
+#include "projtour/contract/plugin_author.hpp"
 
 namespace {
 

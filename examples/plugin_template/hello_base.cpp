@@ -1,7 +1,7 @@
 // A driver plugin: `hello_base`, a BaseDriver that integrates its own velocity commands into
 // odometry (a robot with perfect wheels). A real base's plugin has the same shape: take
 // command_velocity() to the motors, read the encoders in update(), stop in safe_stop().
-#include <projtour/plugin_author.hpp>
+#include <projtour/contract/plugin_author.hpp>
 
 #include <algorithm>
 #include <cmath>

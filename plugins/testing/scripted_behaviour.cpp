@@ -5,8 +5,8 @@
 #include <stdexcept>
 #include <thread>
 
-#include "projtour/blackboard_keys.hpp"
-#include "projtour/context.hpp"
+#include "projtour/contract/blackboard_keys.hpp"
+#include "projtour/contract/context.hpp"
 
 namespace projtour::testing {
 

@@ -5,9 +5,9 @@
 #include <string>
 #include <vector>
 
-#include "projtour/behaviour.hpp"
-#include "projtour/params.hpp"
-#include "projtour/plugin_abi.h"
+#include "projtour/contract/behaviour.hpp"
+#include "projtour/contract/params.hpp"
+#include "projtour/contract/plugin_abi.h"
 
 namespace projtour::testing {
 // Parameters: the descriptor's tables and every read of a value name them through these.

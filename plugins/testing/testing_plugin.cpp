@@ -6,9 +6,9 @@
 #include <mutex>
 #include <sstream>
 
-#include "projtour/blackboard_keys.hpp"
-#include "projtour/plugin_author.hpp"
-#include "projtour/run_files.hpp"
+#include "projtour/contract/blackboard_keys.hpp"
+#include "projtour/contract/plugin_author.hpp"
+#include "projtour/contract/run_files.hpp"
 #include "scripted_behaviour.hpp"
 
 namespace projtour::testing {

@@ -13,9 +13,9 @@
 #include <random>
 #include <tuple>
 
-#include "../align/rendered_scenes.hpp"
+#include "../core/perception/rendered_scenes.hpp"
 #include "pcl_registration.hpp"
-#include "projtour/registration.hpp"
+#include "projtour/perception/registration.hpp"
 
 namespace projtour {
 namespace {

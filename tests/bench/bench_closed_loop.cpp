@@ -10,13 +10,13 @@
 
 #include <opencv2/core.hpp>
 
-#include "../light/light_scene.hpp"
-#include "projtour/geometry.hpp"
-#include "projtour/gray_code.hpp"
-#include "projtour/light_check.hpp"
-#include "projtour/outline_match.hpp"
-#include "projtour/projector_fit.hpp"
-#include "projtour/registered_depth.hpp"
+#include "../core/light/light_scene.hpp"
+#include "projtour/contract/geometry.hpp"
+#include "projtour/light/gray_code.hpp"
+#include "projtour/light/light_check.hpp"
+#include "projtour/light/outline_match.hpp"
+#include "projtour/light/projector_fit.hpp"
+#include "projtour/light/registered_depth.hpp"
 
 namespace projtour {
 namespace {

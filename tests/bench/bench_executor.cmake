@@ -7,6 +7,6 @@ if(TARGET projtour_testing)
     LIBS projtour_executor PkgConfig::CPP_HTTPLIB)
   # The monitor's tick-loop side (monitor_hookup.hpp) is the runner's, private to the executor.
   target_include_directories(bench_executor PRIVATE ${PROJECT_SOURCE_DIR}/plugins/testing
-                                                    ${PROJECT_SOURCE_DIR}/executor/src)
+                                                    ${PROJECT_SOURCE_DIR}/executor/tour/src)
   add_dependencies(bench_executor projtour_testing)
 endif()

@@ -8,10 +8,10 @@
 #include <thread>
 
 #include "monitor_hookup.hpp"
-#include "projtour/params_reader.hpp"
-#include "projtour/plugin_loader.hpp"
-#include "projtour_executor/executor.hpp"
-#include "projtour_executor/monitor.hpp"
+#include "projtour/host/params_reader.hpp"
+#include "projtour/host/plugin_loader.hpp"
+#include "projtour/machine/executor.hpp"
+#include "projtour/views/monitor.hpp"
 #include "projtour_test/run_rig.hpp"
 #include "projtour_test/tour_kinds.hpp"
 #include "scripted_behaviour.hpp"

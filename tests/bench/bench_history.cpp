@@ -21,8 +21,8 @@
 #include <random>
 #include <sstream>
 
-#include "projtour_executor/history.hpp"
-#include "projtour_executor/history_proof.hpp"
+#include "projtour/history/history.hpp"
+#include "projtour/tour/history_proof.hpp"
 #include "projtour_test/process.hpp"
 #include "projtour_test/temp_dir.hpp"
 

@@ -16,10 +16,10 @@
 #include <opencv2/core/utility.hpp>
 #include <random>
 
-#include "../align/rendered_scenes.hpp"
-#include "projtour/beam_guard.hpp"
-#include "projtour/projection.hpp"
-#include "projtour/registration.hpp"
+#include "../core/perception/rendered_scenes.hpp"
+#include "projtour/light/beam_guard.hpp"
+#include "projtour/head/projection.hpp"
+#include "projtour/perception/registration.hpp"
 #include "tracker.hpp"
 
 namespace projtour {

@@ -5,8 +5,8 @@
 #include <mrpt/maps/COccupancyGridMap2D.h>
 #include <mrpt/obs/CObservation2DRangeScan.h>
 
-#include "projtour/localizer.hpp"
-#include "projtour/occupancy_map.hpp"
+#include "projtour/navigation/localizer.hpp"
+#include "projtour/navigation/occupancy_map.hpp"
 
 namespace {
 

@@ -4,7 +4,7 @@
 
 #include <filesystem>
 
-#include "projtour/plugin_loader.hpp"
+#include "projtour/host/plugin_loader.hpp"
 
 namespace {
 

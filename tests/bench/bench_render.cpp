@@ -5,8 +5,8 @@
 #include <ctime>
 #include <random>
 
-#include "../sim/sim_test_scenes.hpp"
-#include "projtour/model.hpp"
+#include "../plugins/sim/sim_test_scenes.hpp"
+#include "projtour/perception/model.hpp"
 #include "projtour_sim/depth_renderer.hpp"
 #include "projtour_sim/kinect_noise.hpp"
 

@@ -20,8 +20,8 @@
 #include <fstream>
 #include <thread>
 
-#include "projtour/mission_loader.hpp"
-#include "projtour/occupancy_map.hpp"
+#include "projtour/host/mission_loader.hpp"
+#include "projtour/navigation/occupancy_map.hpp"
 #include "projtour_sim/sim_world.hpp"
 #include "projtour_test/process.hpp"
 #include "projtour_test/run_rig.hpp"
@@ -34,7 +34,7 @@ namespace {
 using namespace ros2;
 using namespace std::chrono_literals;
 
-// The same lock files as the ROS 2 tests (tests/ros2/ros2_test_domain.hpp), so a benchmark run
+// The same lock files as the ROS 2 tests (tests/plugins/drivers/ros2/ros2_test_domain.hpp), so a benchmark run
 // beside the test suite never shares a domain with a test; held until this process ends.
 int claim_dds_domain() {
   const int start = static_cast<int>((::getpid() + 97) % 200);

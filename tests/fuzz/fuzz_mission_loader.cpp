@@ -15,7 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 
-#include "projtour/mission_loader.hpp"
+#include "projtour/host/mission_loader.hpp"
 
 namespace {
 

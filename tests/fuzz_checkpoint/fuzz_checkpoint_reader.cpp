@@ -9,7 +9,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "projtour_executor/checkpoint.hpp"
+#include "projtour/record/checkpoint.hpp"
 
 namespace {
 

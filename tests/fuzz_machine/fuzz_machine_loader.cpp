@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "projtour_executor/machine.hpp"
+#include "projtour/machine/machine.hpp"
 
 namespace projtour {
 namespace {

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "projtour_executor/json_io.hpp"
+#include "projtour/formats/json_io.hpp"
 #include "projtour_test/process.hpp"
 #include "projtour_test/run_files.hpp"
 

@@ -4,8 +4,8 @@
 
 #include <stdexcept>
 
-#include "projtour/ground_truth.hpp"
-#include "projtour_executor/run_session.hpp"
+#include "projtour/contract/ground_truth.hpp"
+#include "projtour/tour/run_session.hpp"
 
 namespace projtour::integration {
 

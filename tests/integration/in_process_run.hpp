@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "projtour_executor/executor.hpp"
-#include "projtour_executor/run_session.hpp"
+#include "projtour/machine/executor.hpp"
+#include "projtour/tour/run_session.hpp"
 
 namespace projtour::integration {
 

@@ -1,4 +1,4 @@
-#include "projtour/geometry.hpp"
+#include "projtour/contract/geometry.hpp"
 
 namespace projtour {
 

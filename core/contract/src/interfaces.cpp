@@ -5,14 +5,14 @@
 #include <numeric>
 #include <stdexcept>
 
-#include "projtour/behaviour.hpp"
-#include "projtour/blackboard.hpp"
-#include "projtour/clock.hpp"
-#include "projtour/depth_frame.hpp"
-#include "projtour/drivers.hpp"
-#include "projtour/ground_truth.hpp"
-#include "projtour/logger.hpp"
-#include "projtour/mission.hpp"
+#include "projtour/contract/behaviour.hpp"
+#include "projtour/contract/blackboard.hpp"
+#include "projtour/contract/clock.hpp"
+#include "projtour/contract/depth_frame.hpp"
+#include "projtour/contract/drivers.hpp"
+#include "projtour/contract/ground_truth.hpp"
+#include "projtour/contract/logger.hpp"
+#include "projtour/contract/mission.hpp"
 
 namespace projtour {
 

@@ -1,4 +1,4 @@
-#include "projtour/params.hpp"
+#include "projtour/contract/params.hpp"
 
 #include <stdexcept>
 

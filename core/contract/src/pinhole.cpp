@@ -1,4 +1,4 @@
-#include "projtour/pinhole.hpp"
+#include "projtour/contract/pinhole.hpp"
 
 #include <Eigen/LU>
 

@@ -1,4 +1,4 @@
-#include "projtour/run_files.hpp"
+#include "projtour/contract/run_files.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>

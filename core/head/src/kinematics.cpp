@@ -1,4 +1,4 @@
-#include "projtour/kinematics.hpp"
+#include "projtour/head/kinematics.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "projtour/geometry.hpp"
-#include "projtour/projection.hpp"
+#include "projtour/contract/geometry.hpp"
+#include "projtour/head/projection.hpp"
 
 namespace projtour {
 

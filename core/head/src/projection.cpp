@@ -1,4 +1,4 @@
-#include "projtour/projection.hpp"
+#include "projtour/head/projection.hpp"
 
 #include <Eigen/SVD>
 #include <algorithm>

@@ -1,4 +1,4 @@
-#include "projtour/diagnostics.hpp"
+#include "projtour/host/diagnostics.hpp"
 
 #include <algorithm>
 

@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "projtour/geometry.hpp"
-#include "projtour/mission_loader.hpp"
-#include "projtour/yaml_reader.hpp"
+#include "projtour/contract/geometry.hpp"
+#include "projtour/host/mission_loader.hpp"
+#include "projtour/host/yaml_reader.hpp"
 
 namespace projtour::loader {
 

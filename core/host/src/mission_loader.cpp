@@ -1,5 +1,5 @@
 // The mission file (format in DESIGN.md "Mission files").
-#include "projtour/mission_loader.hpp"
+#include "projtour/host/mission_loader.hpp"
 
 #include <array>
 

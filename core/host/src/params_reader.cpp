@@ -1,4 +1,4 @@
-#include "projtour/params_reader.hpp"
+#include "projtour/host/params_reader.hpp"
 
 #include <stdexcept>
 

@@ -1,4 +1,4 @@
-#include "projtour/plugin_loader.hpp"
+#include "projtour/host/plugin_loader.hpp"
 
 #include <dlfcn.h>
 #include <elf.h>
@@ -18,8 +18,8 @@
 #include <type_traits>
 #include <utility>
 
-#include "projtour/diagnostics.hpp"
-#include "projtour/yaml_reader.hpp"
+#include "projtour/host/diagnostics.hpp"
+#include "projtour/host/yaml_reader.hpp"
 
 namespace fs = std::filesystem;
 

@@ -4,7 +4,7 @@
 #include <cstdlib>
 
 #include "loader_fields.hpp"
-#include "projtour/mission_loader.hpp"
+#include "projtour/host/mission_loader.hpp"
 
 namespace projtour {
 

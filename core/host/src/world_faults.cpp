@@ -1,6 +1,6 @@
 // The one table of the world file's faults (world_faults.hpp). The defaults are the simulator's;
 // the signs are what the loader checks. Documented for users in examples/worlds/atrium_faults.yaml.
-#include "projtour/world_faults.hpp"
+#include "projtour/host/world_faults.hpp"
 
 #include <stdexcept>
 

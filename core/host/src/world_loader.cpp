@@ -2,8 +2,8 @@
 #include <algorithm>
 
 #include "loader_fields.hpp"
-#include "projtour/mission_loader.hpp"
-#include "projtour/world_faults.hpp"
+#include "projtour/host/mission_loader.hpp"
+#include "projtour/host/world_faults.hpp"
 
 namespace projtour {
 

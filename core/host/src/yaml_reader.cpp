@@ -1,4 +1,4 @@
-#include "projtour/yaml_reader.hpp"
+#include "projtour/host/yaml_reader.hpp"
 
 #include <cmath>
 #include <fstream>

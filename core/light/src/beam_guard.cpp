@@ -1,5 +1,5 @@
 // The beam guard (see beam_guard.hpp).
-#include "projtour/beam_guard.hpp"
+#include "projtour/light/beam_guard.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -2,7 +2,7 @@
 // GrayCodePattern on the block grid; the decoding is done here on bit planes over the region of
 // interest, which is GrayCodePattern::getProjPixel's test per pixel (pattern brighter than its
 // inverse = 1, most significant bit first) without its per-pixel allocations.
-#include "projtour/gray_code.hpp"
+#include "projtour/light/gray_code.hpp"
 
 #include <algorithm>
 #include <array>

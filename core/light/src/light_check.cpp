@@ -1,6 +1,6 @@
 // The verify step's measurements: the four dots, the model's depth in the colour image, and
 // where the added light lands.
-#include "projtour/light_check.hpp"
+#include "projtour/light/light_check.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,5 +1,5 @@
 // The outline check: the model's rendered outline against the colour image's edges.
-#include "projtour/outline_match.hpp"
+#include "projtour/light/outline_match.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>

@@ -1,6 +1,6 @@
 // The camera-projector transform by PnP in the projector: RANSAC for the inliers, then
 // Levenberg-Marquardt on the reprojection error.
-#include "projtour/projector_fit.hpp"
+#include "projtour/light/projector_fit.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>

@@ -1,5 +1,5 @@
 // Depth registered into the colour image, and colour pixels lifted to 3-D against it.
-#include "projtour/registered_depth.hpp"
+#include "projtour/light/registered_depth.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>

@@ -1,4 +1,4 @@
-#include "projtour/localizer.hpp"
+#include "projtour/navigation/localizer.hpp"
 
 #include <mrpt/bayes/CParticleFilter.h>
 #include <mrpt/maps/COccupancyGridMap2D.h>
@@ -17,7 +17,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "projtour/path_planner.hpp"
+#include "projtour/navigation/path_planner.hpp"
 
 namespace projtour {
 

@@ -1,4 +1,4 @@
-#include "projtour/occupancy_map.hpp"
+#include "projtour/navigation/occupancy_map.hpp"
 
 #include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/maps/COccupancyGridMap2D.h>
@@ -16,7 +16,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "projtour/path_planner.hpp"
+#include "projtour/navigation/path_planner.hpp"
 
 namespace projtour {
 

@@ -1,4 +1,4 @@
-#include "projtour/path_planner.hpp"
+#include "projtour/navigation/path_planner.hpp"
 
 #include <mrpt/maps/COccupancyGridMap2D.h>
 

@@ -8,7 +8,7 @@
 #include <memory>
 #include <vector>
 
-#include "projtour/depth_frame.hpp"
+#include "projtour/contract/depth_frame.hpp"
 
 namespace projtour::detail {
 

@@ -15,8 +15,8 @@
 
 #include "icp_scene_pyramid.hpp"
 #include "icp_scratch.hpp"
-#include "projtour/pinhole.hpp"
-#include "projtour/registration.hpp"
+#include "projtour/contract/pinhole.hpp"
+#include "projtour/perception/registration.hpp"
 #include "vector_clones.hpp"
 
 namespace projtour {

@@ -19,7 +19,7 @@
 
 #include "crop_internal.hpp"
 #include "icp_scratch.hpp"
-#include "projtour/registration.hpp"
+#include "projtour/perception/registration.hpp"
 
 namespace projtour {
 namespace {

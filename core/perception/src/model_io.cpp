@@ -20,7 +20,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "projtour/model.hpp"
+#include "projtour/perception/model.hpp"
 
 namespace projtour {
 namespace {

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "crop_internal.hpp"
-#include "projtour/geometry.hpp"
-#include "projtour/registration.hpp"
+#include "projtour/contract/geometry.hpp"
+#include "projtour/perception/registration.hpp"
 #include "vector_clones.hpp"
 
 namespace projtour {

@@ -22,8 +22,8 @@
 #include "icp_normal_equations.hpp"
 #include "icp_scene_pyramid.hpp"
 #include "icp_scratch.hpp"
-#include "projtour/geometry.hpp"
-#include "projtour/registration.hpp"
+#include "projtour/contract/geometry.hpp"
+#include "projtour/perception/registration.hpp"
 
 namespace projtour {
 

@@ -1,4 +1,4 @@
-#include "projtour_ros2/dds.hpp"
+#include "projtour/ros2/dds.hpp"
 
 #include <map>
 #include <mutex>

@@ -1,4 +1,4 @@
-#include "projtour_ros2/messages.hpp"
+#include "projtour/ros2/messages.hpp"
 
 #include <algorithm>
 #include <cmath>

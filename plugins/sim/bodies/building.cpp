@@ -8,7 +8,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
-#include "projtour/geometry.hpp"
+#include "projtour/contract/geometry.hpp"
 #include "world/random_streams.hpp"
 
 namespace projtour::sim {

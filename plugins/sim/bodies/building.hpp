@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "projtour/world.hpp"
+#include "projtour/host/world.hpp"
 #include "projtour_sim/depth_renderer.hpp"
 
 namespace mrpt::maps {

@@ -7,7 +7,7 @@
 #include <iostream>
 #include <sstream>
 
-#include "projtour/geometry.hpp"
+#include "projtour/contract/geometry.hpp"
 #include "world/random_streams.hpp"
 
 namespace projtour::sim {

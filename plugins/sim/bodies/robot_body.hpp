@@ -16,11 +16,11 @@
 #include <utility>
 #include <vector>
 
-#include "projtour/drivers.hpp"
-#include "projtour/kinematics.hpp"
-#include "projtour/robot.hpp"
-#include "projtour/run_files.hpp"
-#include "projtour/world.hpp"
+#include "projtour/contract/drivers.hpp"
+#include "projtour/head/kinematics.hpp"
+#include "projtour/contract/robot.hpp"
+#include "projtour/contract/run_files.hpp"
+#include "projtour/host/world.hpp"
 #include "projtour_sim/colour_renderer.hpp"
 #include "projtour_sim/depth_renderer.hpp"
 #include "projtour_sim/kinect_noise.hpp"

@@ -13,9 +13,9 @@
 #include <utility>
 #include <vector>
 
-#include "projtour/geometry.hpp"
-#include "projtour/mission.hpp"
-#include "projtour/world.hpp"
+#include "projtour/contract/geometry.hpp"
+#include "projtour/contract/mission.hpp"
+#include "projtour/host/world.hpp"
 #include "projtour_sim/depth_renderer.hpp"
 
 namespace projtour::sim {

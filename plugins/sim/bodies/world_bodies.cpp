@@ -9,7 +9,7 @@
 #include <cmath>
 #include <limits>
 
-#include "projtour/geometry.hpp"
+#include "projtour/contract/geometry.hpp"
 #include "world/random_streams.hpp"
 
 namespace projtour::sim {

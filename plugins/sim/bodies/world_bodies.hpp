@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "bodies/building.hpp"
-#include "projtour/drivers.hpp"
-#include "projtour/robot.hpp"
+#include "projtour/contract/drivers.hpp"
+#include "projtour/contract/robot.hpp"
 #include "projtour_sim/depth_renderer.hpp"
 
 namespace projtour::sim {

@@ -1,5 +1,5 @@
 // The plugin's descriptor: six simulated drivers sharing one world per run.
-#include "projtour/plugin_author.hpp"
+#include "projtour/contract/plugin_author.hpp"
 #include "projtour_sim/sim_drivers.hpp"
 
 namespace {

@@ -1,13 +1,13 @@
 // The world file's faults at work (sim_faults.hpp). Every number not written in the world file
-// is the fault table's default (projtour/world_faults.hpp).
+// is the fault table's default (projtour/host/world_faults.hpp).
 #include "faults/sim_faults.hpp"
 
 #include <algorithm>
 #include <cmath>
 
 #include "bodies/body_ids.hpp"
-#include "projtour/geometry.hpp"
-#include "projtour/world_faults.hpp"
+#include "projtour/contract/geometry.hpp"
+#include "projtour/host/world_faults.hpp"
 #include "world/random_streams.hpp"
 
 namespace projtour::sim {

@@ -1,6 +1,6 @@
 #pragma once
 // Inside the sim plugin: the world file's faults at work. What each fault is, its numbers and
-// their defaults are core/host's table (projtour/world_faults.hpp); this is what the simulator
+// their defaults are core/host's table (projtour/host/world_faults.hpp); this is what the simulator
 // does with them: the static ones (occluder, blocked_path, pole) stand in the building from the
 // start, the others act while their target is the active one.
 #include <functional>
@@ -13,7 +13,7 @@
 #include "bodies/targets.hpp"
 #include "bodies/world_bodies.hpp"
 #include "people/crowd.hpp"
-#include "projtour/world.hpp"
+#include "projtour/host/world.hpp"
 
 namespace projtour::sim {
 

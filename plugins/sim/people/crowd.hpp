@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "bodies/building.hpp"
-#include "projtour/world.hpp"
+#include "projtour/host/world.hpp"
 #include "projtour_sim/depth_renderer.hpp"
 
 namespace mrpt::maps {

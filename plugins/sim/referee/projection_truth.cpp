@@ -9,8 +9,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "projtour/geometry.hpp"
-#include "projtour/run_image.hpp"
+#include "projtour/contract/geometry.hpp"
+#include "projtour/contract/run_image.hpp"
 #include "referee/projection_truth.hpp"
 
 namespace projtour::sim {

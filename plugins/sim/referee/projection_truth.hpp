@@ -6,9 +6,9 @@
 #include <optional>
 #include <string>
 
-#include "projtour/colour_frame.hpp"
-#include "projtour/mission.hpp"
-#include "projtour/pinhole.hpp"
+#include "projtour/contract/colour_frame.hpp"
+#include "projtour/contract/mission.hpp"
+#include "projtour/contract/pinhole.hpp"
 #include "projtour_sim/depth_renderer.hpp"
 
 namespace cv {

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "bodies/building.hpp"
-#include "projtour/ground_truth.hpp"
-#include "projtour/pinhole.hpp"
+#include "projtour/contract/ground_truth.hpp"
+#include "projtour/contract/pinhole.hpp"
 #include "projtour_sim/depth_renderer.hpp"
 
 namespace projtour::sim {

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "projtour/geometry.hpp"
+#include "projtour/contract/geometry.hpp"
 
 namespace projtour::sim {
 namespace {

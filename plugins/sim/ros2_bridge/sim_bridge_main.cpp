@@ -10,13 +10,13 @@
 #include <iostream>
 #include <thread>
 
-#include "projtour/diagnostics.hpp"
-#include "projtour/mission_loader.hpp"
-#include "projtour/occupancy_map.hpp"
-#include "projtour/world.hpp"
-#include "projtour_cli/options.hpp"
-#include "projtour_ros2/dds.hpp"
-#include "projtour_ros2/messages.hpp"
+#include "projtour/host/diagnostics.hpp"
+#include "projtour/host/mission_loader.hpp"
+#include "projtour/navigation/occupancy_map.hpp"
+#include "projtour/host/world.hpp"
+#include "projtour/cli/options.hpp"
+#include "projtour/ros2/dds.hpp"
+#include "projtour/ros2/messages.hpp"
 #include "projtour_sim/sim_world.hpp"
 
 namespace {

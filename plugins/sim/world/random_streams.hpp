@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <random>
 
-#include "projtour/geometry.hpp"
+#include "projtour/contract/geometry.hpp"
 
 namespace projtour::sim {
 

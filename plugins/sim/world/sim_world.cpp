@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "bodies/body_ids.hpp"
-#include "projtour/geometry.hpp"
-#include "projtour/run_files.hpp"
+#include "projtour/contract/geometry.hpp"
+#include "projtour/contract/run_files.hpp"
 #include "world/random_streams.hpp"
 #include "world/world_impl.hpp"
 

@@ -6,8 +6,8 @@
 #include <stdexcept>
 
 #include "bodies/building.hpp"
-#include "projtour/geometry.hpp"
-#include "projtour/run_files.hpp"
+#include "projtour/contract/geometry.hpp"
+#include "projtour/contract/run_files.hpp"
 #include "referee/projection_truth.hpp"
 #include "world/world_impl.hpp"
 

@@ -16,8 +16,8 @@
 #include "bodies/world_bodies.hpp"
 #include "faults/sim_faults.hpp"
 #include "people/crowd.hpp"
-#include "projtour/context.hpp"
-#include "projtour/world.hpp"
+#include "projtour/contract/context.hpp"
+#include "projtour/host/world.hpp"
 #include "projtour_sim/sim_world.hpp"
 #include "referee/referee.hpp"
 

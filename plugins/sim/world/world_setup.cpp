@@ -9,8 +9,8 @@
 #include <utility>
 
 #include "bodies/body_ids.hpp"
-#include "projtour/geometry.hpp"
-#include "projtour/occupancy_map.hpp"
+#include "projtour/contract/geometry.hpp"
+#include "projtour/navigation/occupancy_map.hpp"
 #include "world/random_streams.hpp"
 #include "world/world_impl.hpp"
 

@@ -37,8 +37,8 @@
 #include <random>
 #include <vector>
 
-#include "projtour/colour_frame.hpp"
-#include "projtour/pinhole.hpp"
+#include "projtour/contract/colour_frame.hpp"
+#include "projtour/contract/pinhole.hpp"
 #include "projtour_sim/depth_renderer.hpp"
 
 namespace projtour::sim {

@@ -21,8 +21,8 @@
 #include <limits>
 #include <vector>
 
-#include "projtour/model.hpp"
-#include "projtour/pinhole.hpp"
+#include "projtour/perception/model.hpp"
+#include "projtour/contract/pinhole.hpp"
 
 namespace mrpt::maps {
 class COccupancyGridMap2D;

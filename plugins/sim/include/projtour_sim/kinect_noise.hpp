@@ -59,7 +59,7 @@
 #include <cstdint>
 #include <random>
 
-#include "projtour/depth_frame.hpp"
+#include "projtour/contract/depth_frame.hpp"
 #include "projtour_sim/depth_renderer.hpp"
 
 namespace projtour::sim {

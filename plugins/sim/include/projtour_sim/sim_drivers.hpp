@@ -3,9 +3,9 @@
 // Each advances the world in update() (the world ignores a time it has already reached).
 #include <memory>
 
-#include "projtour/context.hpp"
-#include "projtour/drivers.hpp"
-#include "projtour/params.hpp"
+#include "projtour/contract/context.hpp"
+#include "projtour/contract/drivers.hpp"
+#include "projtour/contract/params.hpp"
 #include "projtour_sim/sim_world.hpp"
 
 namespace projtour::sim {

@@ -7,7 +7,7 @@
 // World-file keys it reads (WorldSpec, see examples/worlds/atrium_faults.yaml): targets (true
 // poses), target_offset, noise (odometry, laser, encoders, depth), model_error, calibration_error
 // and faults. What each fault does, its numbers and their defaults are one table, core/host's
-// projtour/world_faults.hpp (documented for users in examples/worlds/atrium_faults.yaml); the
+// projtour/host/world_faults.hpp (documented for users in examples/worlds/atrium_faults.yaml); the
 // simulator's side of them is faults/sim_faults.hpp.
 // Faults other than the static obstacles (target_missing, occluder, blocked_path, pole) act while
 // their target is the one the robot is at: the nearest target within its stand-off + 1.5 m.
@@ -25,11 +25,11 @@
 #include <string>
 #include <vector>
 
-#include "projtour/context.hpp"
-#include "projtour/drivers.hpp"
-#include "projtour/ground_truth.hpp"
-#include "projtour/model.hpp"
-#include "projtour/world.hpp"
+#include "projtour/contract/context.hpp"
+#include "projtour/contract/drivers.hpp"
+#include "projtour/contract/ground_truth.hpp"
+#include "projtour/perception/model.hpp"
+#include "projtour/host/world.hpp"
 #include "projtour_sim/colour_renderer.hpp"
 
 namespace cv {

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "projtour_executor/json_io.hpp"
+#include "projtour/formats/json_io.hpp"
 
 namespace projtour::test {
 

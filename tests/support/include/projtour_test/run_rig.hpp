@@ -7,14 +7,14 @@
 #include <string>
 #include <vector>
 
-#include "projtour/blackboard.hpp"
-#include "projtour/clock.hpp"
-#include "projtour/context.hpp"
-#include "projtour/drivers.hpp"
-#include "projtour/logger.hpp"
-#include "projtour/mission.hpp"
-#include "projtour/params.hpp"
-#include "projtour/world.hpp"
+#include "projtour/contract/blackboard.hpp"
+#include "projtour/contract/clock.hpp"
+#include "projtour/contract/context.hpp"
+#include "projtour/contract/drivers.hpp"
+#include "projtour/contract/logger.hpp"
+#include "projtour/contract/mission.hpp"
+#include "projtour/contract/params.hpp"
+#include "projtour/host/world.hpp"
 #include "projtour_test/temp_dir.hpp"
 
 namespace projtour::test {

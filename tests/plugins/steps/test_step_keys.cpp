@@ -1,0 +1,83 @@
+// navigate and relocalize against the keys their descriptors declare: each runs in the
+// navigation tests' in-process dry run (tests/core/navigation/nav_rig.hpp) over a blackboard on which
+// every key it does not declare holds a value of a type no step uses (step_keys.hpp), so reading
+// or writing one throws, naming it. aim, project and next are checked the same way in
+// tests/core/head/test_behaviours.cpp.
+#include <gtest/gtest.h>
+
+#include "nav_rig.hpp"
+#include "projtour/contract/blackboard_keys.hpp"
+#include "projtour/head/kinematics.hpp"
+#include "step_keys.hpp"
+
+namespace projtour::nav_test {
+namespace {
+
+const std::string kDemoMap = PROJTOUR_SOURCE_DIR "/maps/malaga_campus.yaml";
+const Pose2D kStart{10.0, 1.0, 0.0};
+// The localization service runs beside the step and uses its own keys (its tests check them).
+const std::vector<std::string> kBeside = {"mrpt_localization"};
+
+std::optional<Outcome> run_poisoned(Rig& rig, const test::StepKeys& step_keys,
+                                    const std::string& kind, const TargetSpec* target,
+                                    double max_s) {
+  step_keys.poison(rig.blackboard());
+  std::optional<Outcome> out;
+  EXPECT_NO_THROW(out = rig.run(kind, rig.defaults(kind), target, max_s)) << kind;
+  if (out) {
+    EXPECT_TRUE(rig.registry().require(kind).declares_outcome(out->name)) << out->name;
+  }
+  return out;
+}
+
+TEST(StepKeys, NavigateToAStandOffUsesOnlyTheKeysItDeclares) {
+  Rig rig(kDemoMap, kStart, 3);
+  rig.idle(1.0);
+  const test::StepKeys step_keys(PROJTOUR_PLUGIN_BUILD_DIR, "navigate", kBeside);
+  const TargetSpec target = target_for_goal("t", {13.0, 1.0, 0.0});
+  const std::uint64_t writes_before = rig.blackboard().writes();
+  const auto out = run_poisoned(rig, step_keys, "navigate", &target, 120.0);
+  ASSERT_TRUE(out.has_value());
+  ASSERT_EQ(out->name, "succeeded") << out->message;
+  EXPECT_EQ(step_keys.written_since(rig.blackboard(), writes_before), step_keys.declared_writes());
+}
+
+// navigate read the believed calibration when it re-approached an aligned target (aim's
+// reapproach) without declaring it, so `projtour graph` and the machine's data check missed the
+// edge from calibrate. With align's result and the capture it fitted on the blackboard, start()
+// takes that path: an undeclared read of the calibration throws here.
+TEST(StepKeys, Regression_NavigateReadsTheCalibrationItDeclares) {
+  Rig rig(kDemoMap, kStart, 3);
+  rig.idle(1.0);
+  const test::StepKeys step_keys(PROJTOUR_PLUGIN_BUILD_DIR, "navigate", kBeside);
+  const TargetSpec target = target_for_goal("t", {13.0, 1.0, 0.0});
+  // The capture at the estimate now, and align's pose of the target as the map has it.
+  CapturedFrame capture;
+  capture.base_estimate = rig.estimate();
+  AlignResult aligned;
+  aligned.joints = capture.joints;
+  const HeadKinematics head(rig.mission().robot);
+  aligned.T_camera_model =
+      (isometry_from_pose2d(capture.base_estimate.mean) * head.T_base_camera(capture.joints))
+          .inverse() *
+      target.T_map_model;
+  rig.blackboard().set(keys::kCapture, std::move(capture));
+  rig.blackboard().set(keys::kAlign, std::move(aligned));
+  ProjectorCalibration calibration;
+  rig.blackboard().set(keys::kCalibration, std::move(calibration));
+  run_poisoned(rig, step_keys, "navigate", &target, 5.0);
+}
+
+TEST(StepKeys, RelocalizeUsesOnlyTheKeysItDeclares) {
+  Rig rig(kDemoMap, kStart, 3);
+  rig.idle(1.0);
+  const test::StepKeys step_keys(PROJTOUR_PLUGIN_BUILD_DIR, "relocalize", kBeside);
+  const auto out = run_poisoned(rig, step_keys, "relocalize", nullptr, 60.0);
+  ASSERT_TRUE(out.has_value());
+  EXPECT_EQ(out->name, "succeeded") << out->message;
+  // Its one write, the widening, the service takes (erases) at its next update, so it cannot be
+  // read back here: the poisoned keys are the check.
+}
+
+}  // namespace
+}  // namespace projtour::nav_test
