@@ -32,7 +32,7 @@ let puppeteer;
 try {
   puppeteer = (await import("puppeteer-core")).default;
 } catch (err) {
-  throw new Error(`puppeteer-core is not installed: npm ci --prefix tests/monitor (${err.message})`);
+  throw new Error(`puppeteer-core is not installed: npm ci --prefix tests/executor/views/monitor (${err.message})`);
 }
 
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
