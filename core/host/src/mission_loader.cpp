@@ -1,4 +1,4 @@
-// The mission file (format in DESIGN.md "Mission files").
+// The mission file (format in README.md, "Mission files").
 #include "projtour/host/mission_loader.hpp"
 
 #include <array>

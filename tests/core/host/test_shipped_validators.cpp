@@ -1,6 +1,6 @@
-// The shipped plugins check their parameter values when the mission is loaded (DESIGN.md: "not
-// when it first runs"): each kind's validator, called as the loader calls it, names the bad
-// value and passes the defaults.
+// The shipped plugins check their parameter values when the mission is loaded, not when the step
+// first runs (nothing moves until everything the run will touch was checked): each kind's
+// validator, called as the loader calls it, names the bad value and passes the defaults.
 #include <gtest/gtest.h>
 
 #include <ostream>

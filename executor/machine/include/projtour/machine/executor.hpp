@@ -24,7 +24,7 @@ namespace projtour {
 
 enum class TourOutcome { running, completed, completed_with_skips, aborted, interrupted };
 const char* to_string(TourOutcome outcome);
-// DESIGN.md's exit status: 0, 3, 1, 130.
+// The exit status README.md's "The command" gives: 0, 3, 1, 130.
 int exit_code(TourOutcome outcome);
 
 struct ExecutorOptions {

@@ -113,7 +113,7 @@ std::optional<Machine> load_machine(const YamlField& field, const BehaviourCatal
 std::optional<Machine> load_machine(const MachineSource& source, const BehaviourCatalog& catalog,
                                     Diagnostics& diag);
 
-// The default machine of DESIGN.md as YAML, parsed by the same loader.
+// The default machine (default_machine.yaml, docs/machine.md) as YAML, parsed by the same loader.
 const std::string& default_machine_yaml();
 inline constexpr const char* kDefaultMachineFile = "<default machine>";
 

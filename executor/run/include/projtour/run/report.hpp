@@ -34,7 +34,7 @@ struct RunSummary {
   std::optional<BuildingTruth> building;
 };
 
-// DESIGN.md's report.json, and the referee's `building` section of a dry run in a busy world.
+// report.json (README.md, "The command"), and the referee's `building` section of a dry run in a busy world.
 Json build_report(const RunSummary& summary);
 
 // The per-target table printed at the end of a run.

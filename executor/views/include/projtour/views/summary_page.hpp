@@ -8,7 +8,7 @@
 namespace projtour {
 
 struct SummaryInput {
-  Json report;  // report.json as build_report() makes it (DESIGN.md); missing fields show "-"
+  Json report;  // report.json as build_report() makes it (run/report.hpp); missing fields show "-"
 };
 
 // Reads run_dir/report.json, parsed strictly (json_io.hpp). Throws std::runtime_error naming
