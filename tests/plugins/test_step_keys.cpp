@@ -8,6 +8,7 @@
 #include "nav_rig.hpp"
 #include "projtour/blackboard_keys.hpp"
 #include "projtour/kinematics.hpp"
+#include "projtour_test/process.hpp"
 #include "step_keys.hpp"
 
 namespace projtour::nav_test {
@@ -66,6 +67,19 @@ TEST(StepKeys, Regression_NavigateReadsTheCalibrationItDeclares) {
   ProjectorCalibration calibration;
   rig.blackboard().set(keys::kCalibration, std::move(calibration));
   run_poisoned(rig, step_keys, "navigate", &target, 5.0);
+}
+
+// The declaration is what `projtour graph` draws: the demo mission's graph gained this edge
+// from calibrate (the calibration believed for the rest of the run) to navigate when navigate
+// declared the read; no other line of the graph changed.
+TEST(StepKeys, GraphDrawsTheCalibrationNavigateReads) {
+  const test::RunResult graph =
+      test::run_projtour({"graph", PROJTOUR_SOURCE_DIR "/missions/demo_tour.yaml"});
+  ASSERT_EQ(graph.status, 0) << graph.err;
+  EXPECT_NE(graph.out.find("\"tour/visit/calibrate\" -> \"tour/visit/navigate\" "
+                           "[label=\"calibration\", style=dotted"),
+            std::string::npos)
+      << graph.out;
 }
 
 TEST(StepKeys, RelocalizeUsesOnlyTheKeysItDeclares) {
