@@ -93,5 +93,19 @@ TEST(StepKeys, RelocalizeUsesOnlyTheKeysItDeclares) {
   // read back here: the poisoned keys are the check.
 }
 
+// The localization service, as it runs for the whole tour: every key it does not declare
+// poisoned while it updates on scans and odometry.
+TEST(StepKeys, LocalizationServiceUsesOnlyTheKeysItDeclares) {
+  Rig rig(kDemoMap, kStart, 3);
+  const test::StepKeys service_keys(PROJTOUR_PLUGIN_BUILD_DIR, "mrpt_localization");
+  ASSERT_FALSE(service_keys.poisoned().empty());
+  service_keys.poison(rig.blackboard());
+  const std::uint64_t writes_before = rig.blackboard().writes();
+  ASSERT_NO_THROW(rig.idle(2.0));
+  EXPECT_TRUE(service_keys.declared_writes().count(keys::kLocalization.name));
+  EXPECT_EQ(service_keys.written_since(rig.blackboard(), writes_before),
+            service_keys.declared_writes());
+}
+
 }  // namespace
 }  // namespace projtour::nav_test
