@@ -306,3 +306,11 @@ TEST(StepKeys, NextUsesNoKey) {
   Rig rig;
   expect_only_declared_keys(rig, "next");
 }
+
+// wait (plugins/closed_loop) keeps the projector blank for its duration and uses no key.
+TEST(StepKeys, WaitUsesNoKey) {
+  Rig rig;
+  rig.registry.load_library(std::filesystem::path(PROJTOUR_PLUGIN_BUILD_DIR) /
+                            "libprojtour_closed_loop.so");
+  expect_only_declared_keys(rig, "wait");
+}

@@ -8,6 +8,7 @@
 #include "nav_rig.hpp"
 #include "projtour/contract/blackboard_keys.hpp"
 #include "projtour/head/kinematics.hpp"
+#include "projtour_test/process.hpp"
 #include "step_keys.hpp"
 
 namespace projtour::nav_test {
@@ -68,6 +69,19 @@ TEST(StepKeys, Regression_NavigateReadsTheCalibrationItDeclares) {
   run_poisoned(rig, step_keys, "navigate", &target, 5.0);
 }
 
+// The declaration is what `projtour graph` draws: the demo mission's graph gained this edge
+// from calibrate (the calibration believed for the rest of the run) to navigate when navigate
+// declared the read; no other line of the graph changed.
+TEST(StepKeys, GraphDrawsTheCalibrationNavigateReads) {
+  const test::RunResult graph =
+      test::run_projtour({"graph", PROJTOUR_SOURCE_DIR "/missions/demo_tour.yaml"});
+  ASSERT_EQ(graph.status, 0) << graph.err;
+  EXPECT_NE(graph.out.find("\"tour/visit/calibrate\" -> \"tour/visit/navigate\" "
+                           "[label=\"calibration\", style=dotted"),
+            std::string::npos)
+      << graph.out;
+}
+
 TEST(StepKeys, RelocalizeUsesOnlyTheKeysItDeclares) {
   Rig rig(kDemoMap, kStart, 3);
   rig.idle(1.0);
@@ -77,6 +91,20 @@ TEST(StepKeys, RelocalizeUsesOnlyTheKeysItDeclares) {
   EXPECT_EQ(out->name, "succeeded") << out->message;
   // Its one write, the widening, the service takes (erases) at its next update, so it cannot be
   // read back here: the poisoned keys are the check.
+}
+
+// The localization service, as it runs for the whole tour: every key it does not declare
+// poisoned while it updates on scans and odometry.
+TEST(StepKeys, LocalizationServiceUsesOnlyTheKeysItDeclares) {
+  Rig rig(kDemoMap, kStart, 3);
+  const test::StepKeys service_keys(PROJTOUR_PLUGIN_BUILD_DIR, "mrpt_localization");
+  ASSERT_FALSE(service_keys.poisoned().empty());
+  service_keys.poison(rig.blackboard());
+  const std::uint64_t writes_before = rig.blackboard().writes();
+  ASSERT_NO_THROW(rig.idle(2.0));
+  EXPECT_TRUE(service_keys.declared_writes().count(keys::kLocalization.name));
+  EXPECT_EQ(service_keys.written_since(rig.blackboard(), writes_before),
+            service_keys.declared_writes());
 }
 
 }  // namespace
