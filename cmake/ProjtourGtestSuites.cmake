@@ -1,10 +1,10 @@
 # cmake -D EXE=... -D OUT=... -D WORKDIR=... -D TIMEOUT=... [-D LABEL=...] -P ProjtourGtestSuites.cmake
 # Run after a test program is built (projtour_add_test): lists its GoogleTest cases and writes
-# OUT, a ctest file adding one test per suite, "Suite.*", which runs that suite's cases in one
-# process (--gtest_filter=Suite.*). A test program links the robot's few hundred shared
-# libraries, and loading them costs a case that runs in its own process more than many cases
-# themselves take; a suite's cases also share what a suite keeps for them (a dry run its cases
-# only read). Every case still runs, and GoogleTest's output names each one that fails.
+# OUT, a ctest file adding one test per suite, "program/Suite.*", which runs that suite's cases
+# in one process (--gtest_filter=Suite.*). A test program links the robot's few hundred shared
+# libraries, and loading them (~0.4 s of CPU) costs a case that runs in its own process more
+# than many cases themselves take. Every case still runs, and GoogleTest's output names each
+# one that fails.
 #
 # TIMEOUT is per case: a suite gets it times its number of cases, the same budget as before, but
 # at most the 900 s `make test` gives a test without one (unless one case has more), so that a
@@ -44,6 +44,9 @@ foreach(line IN LISTS lines)
   endif()
 endforeach()
 
+# A suite's name may recur in another program (SimFaults, DepletionGuard): the program's name
+# before it keeps each test's name unique and says where its cases are.
+get_filename_component(program "${EXE}" NAME)
 set(script "")
 foreach(suite IN LISTS suites)
   if(suite MATCHES "^DISABLED_" OR cases_${suite} EQUAL 0)
@@ -53,8 +56,9 @@ foreach(suite IN LISTS suites)
   if(timeout GREATER 900 AND TIMEOUT LESS 900)
     set(timeout 900)
   endif()
-  set(name "${suite}.*")
-  string(APPEND script "add_test([==[${name}]==] [==[${EXE}]==] [==[--gtest_filter=${name}]==])\n")
+  set(name "${program}/${suite}.*")
+  string(APPEND script
+    "add_test([==[${name}]==] [==[${EXE}]==] [==[--gtest_filter=${suite}.*]==])\n")
   set(properties "WORKING_DIRECTORY [==[${WORKDIR}]==] TIMEOUT ${timeout}")
   if(LABEL)
     string(APPEND properties " LABELS ${LABEL}")

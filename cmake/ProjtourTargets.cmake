@@ -113,7 +113,7 @@ function(projtour_add_test name)
   if(label_count GREATER 1)
     message(FATAL_ERROR "projtour_add_test(${name}): one label beyond the folder's, got ${T_LABELS}")
   endif()
-  # One ctest test per GoogleTest suite ("Suite.*", all its cases in one process), listed after
+  # One ctest test per GoogleTest suite ("test_x/Suite.*", its cases in one process), listed after
   # each build as gtest_discover_tests would list cases: see ProjtourGtestSuites.cmake for why.
   set(suites_file ${CMAKE_CURRENT_BINARY_DIR}/${name}_suites.cmake)
   add_custom_command(TARGET ${name} POST_BUILD
