@@ -6,9 +6,10 @@
 # are compiled by clang with libFuzzer + ASan + UBSan, as the main build is GCC: sanitized
 # objects cannot come from it, so the sources are compiled again rather than linked. LINK_FILES
 # are prebuilt libraries to link as files ($<TARGET_FILE:yaml-cpp>): their code is not fuzzed.
-# The fuzzer is not part of `all` (a minute of clang on every build); the test `build_NAME`
-# builds it as a fixture of `NAME_60s`, so `ctest` builds and runs it. Without clang, the
-# harness is built by GCC against GCC_FALLBACK_LINK and runs the seed corpus once (NAME_corpus).
+# The fuzzer is part of `all`: a minute of clang when its sources change, counted as build time,
+# not as the suite's test time (it was a test, `build_NAME`, until the suite had to fit 12
+# minutes). Without clang, the harness is built by GCC against GCC_FALLBACK_LINK and runs the
+# seed corpus once (NAME_corpus).
 find_program(PROJTOUR_CLANGXX NAMES clang++ clang++-14 clang++-15 clang++-16)
 
 # The stand-in for libFuzzer's driver the GCC fallback links.
@@ -16,7 +17,7 @@ set(PROJTOUR_FUZZ_CORPUS_MAIN ${PROJECT_SOURCE_DIR}/tests/fuzz/run_corpus_main.c
 
 function(projtour_add_fuzzer)
   cmake_parse_arguments(F "" "NAME;HARNESS;CORPUS"
-                        "SOURCES;HEADERS;LINK_FILES;GCC_FALLBACK_LINK" ${ARGN})
+                        "SOURCES;GENERATED;HEADERS;LINK_FILES;GCC_FALLBACK_LINK" ${ARGN})
   if(NOT F_NAME OR NOT F_HARNESS OR NOT F_SOURCES OR NOT F_GCC_FALLBACK_LINK)
     message(FATAL_ERROR "projtour_add_fuzzer: NAME, HARNESS, SOURCES and GCC_FALLBACK_LINK "
                         "are required")
@@ -36,6 +37,16 @@ function(projtour_add_fuzzer)
   endif()
 
   list(TRANSFORM F_SOURCES PREPEND ${PROJECT_SOURCE_DIR}/)
+  # GENERATED: TARGET=path pairs of sources another target generates (an embedded file), with
+  # the path relative to the build tree; the fuzzer is built after TARGET.
+  set(generated_targets)
+  foreach(pair ${F_GENERATED})
+    string(REPLACE "=" ";" pair_parts ${pair})
+    list(GET pair_parts 0 generator)
+    list(GET pair_parts 1 generated)
+    list(APPEND F_SOURCES ${CMAKE_BINARY_DIR}/${generated})
+    list(APPEND generated_targets ${generator})
+  endforeach()
   list(TRANSFORM F_HEADERS PREPEND ${PROJECT_SOURCE_DIR}/)
   file(GLOB headers ${F_HEADERS})
   # libFuzzer writes new inputs into its first corpus directory: keep those in the build tree.
@@ -47,7 +58,7 @@ function(projtour_add_fuzzer)
   # as system headers (their warnings are not ours). nlohmann_json's target is found in
   # executor/ and is not visible here: its headers are where the compiler looks anyway.
   set(include_flags -I${PROJECT_SOURCE_DIR}/core/contract/include
-    -I${PROJECT_SOURCE_DIR}/core/host/include -I${PROJECT_SOURCE_DIR}/executor/json/include -I${PROJECT_SOURCE_DIR}/executor/record/include -I${PROJECT_SOURCE_DIR}/executor/machine/include
+    -I${PROJECT_SOURCE_DIR}/core/host/include -I${PROJECT_SOURCE_DIR}/executor/formats/include -I${PROJECT_SOURCE_DIR}/executor/record/include -I${PROJECT_SOURCE_DIR}/executor/machine/include
     -I${CMAKE_BINARY_DIR}/core/contract/include)
   set(include_dirs ${OpenCV_INCLUDE_DIRS})
   foreach(dep Eigen3::Eigen yaml-cpp)
@@ -71,18 +82,15 @@ function(projtour_add_fuzzer)
     DEPENDS ${harness} ${F_SOURCES} ${headers}
     COMMENT "Building ${F_NAME} with clang (libFuzzer, ASan, UBSan)"
     COMMAND_EXPAND_LISTS VERBATIM)
-  add_custom_target(${F_NAME} DEPENDS ${fuzzer})
+  add_custom_target(${F_NAME} ALL DEPENDS ${fuzzer})
+  if(generated_targets)
+    add_dependencies(${F_NAME} ${generated_targets})
+  endif()
 
-  add_test(NAME build_${F_NAME}
-    COMMAND ${CMAKE_COMMAND} --build ${CMAKE_BINARY_DIR} --target ${F_NAME})
-  # `slow`, both: the minute of fuzzing runs after the fast suite (`make test`), and building the
-  # fuzzer (a minute of clang) belongs to it rather than to the fast suite.
-  set_tests_properties(build_${F_NAME} PROPERTIES
-    FIXTURES_SETUP ${F_NAME}_binary LABELS slow TIMEOUT 600)
+  # `slow`: the minute of fuzzing runs after the fast suite (`make test`).
   # Any crash, sanitizer report, leak or timeout of one input makes libFuzzer exit non-zero.
   add_test(NAME ${F_NAME}_60s
     COMMAND ${fuzzer} -max_total_time=60 -timeout=10 -rss_limit_mb=2048 -print_final_stats=1
             -artifact_prefix=${artifacts}/ ${work_corpus} ${F_CORPUS})
-  set_tests_properties(${F_NAME}_60s PROPERTIES
-    FIXTURES_REQUIRED ${F_NAME}_binary LABELS slow TIMEOUT 180)
+  set_tests_properties(${F_NAME}_60s PROPERTIES LABELS slow TIMEOUT 180)
 endfunction()
