@@ -34,6 +34,10 @@ TEST_F(Determinism, SameSeedSameReportAndEvents) {
   ASSERT_EQ(a.exit_code, 0) << a.err;
   ASSERT_EQ(b.exit_code, 0) << b.err;
   EXPECT_EQ(a.report.at("seed").get<long long>(), 5);
+  // Every target was driven to on a plan, whose length the record gives.
+  for (const Json& t : a.report.at("targets")) {
+    EXPECT_GT(t.at("planned_path_m").get<double>(), 0.0) << dump_json(t);
+  }
   // The wall-clock fields are there (and so really stripped, not absent).
   ASSERT_TRUE(a.report.at("timing").at("wall_s").is_number());
   ASSERT_TRUE(a.report.at("targets")[0].at("align").at("time_ms").is_number());

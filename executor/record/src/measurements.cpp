@@ -1,6 +1,8 @@
 #include "projtour/record/measurements.hpp"
 
 #include <array>
+#include <cmath>
+#include <cstddef>
 #include <optional>
 
 #include "projtour/contract/blackboard_keys.hpp"
@@ -14,6 +16,15 @@ namespace {
 // Where the robot believed it was when navigate ended (arrived, or gave up).
 void measure_navigate(const Context& ctx, const NavigateResult& result, GroundTruth* truth,
                       TargetMeasurements& out) {
+  if (!result.planned_path.empty()) {
+    double length_m = 0.0;
+    for (std::size_t i = 1; i < result.planned_path.size(); ++i) {
+      const Pose2D& a = result.planned_path[i - 1];
+      const Pose2D& b = result.planned_path[i];
+      length_m += std::hypot(b.x_m - a.x_m, b.y_m - a.y_m);
+    }
+    out.planned_path_m = length_m;
+  }
   if (truth == nullptr) return;
   const PoseEstimate2D* estimate =
       result.arrived_at ? &*result.arrived_at : ctx.blackboard().find(keys::kLocalization);

@@ -45,6 +45,7 @@ TargetRecord every_field() {
   m.observed_light_on_target = 0.875;
   m.projection_error_area_mm = AreaError{2.25, 4.5};
   m.light_off_target_fraction = 0.0625;
+  m.planned_path_m = 12.25;
   return r;
 }
 
@@ -62,7 +63,7 @@ const char* const kEveryFieldText =
     R"("projection_error_area_mm": {"mean": 2.25, "max": 4.5}, )"
     R"("light_off_target_fraction": 0.0625, "calibration": {"adopted": true, )"
     R"("decoded_blocks": 40, "inliers": 38, "rms_px": 0.5, "change_mm": 3.0, )"
-    R"("change_deg": 0.125, "sequence_s": 2.5, "time_ms": 12.0}})";
+    R"("change_deg": 0.125, "sequence_s": 2.5, "time_ms": 12.0}, "planned_path_m": 12.25})";
 
 TEST(RecordFields, EveryFieldWrittenInItsOrderAndReadBack) {
   const std::string text = dump_json(Json(every_field()));
@@ -73,6 +74,7 @@ TEST(RecordFields, EveryFieldWrittenInItsOrderAndReadBack) {
   ASSERT_TRUE(back.measurements.calibration.has_value());
   EXPECT_EQ(back.measurements.calibration->compute_ms, 12.0);
   EXPECT_EQ(back.measurements.beam_interruptions, 2);
+  EXPECT_EQ(back.measurements.planned_path_m, 12.25);
 }
 
 // Reading a record into one that held another leaves nothing of the first.
@@ -151,6 +153,7 @@ TEST(RecordFields, SummaryPageShowsEveryFieldTheRecordWrites) {
       "projector calibration|adopted: yes &middot; 40 blocks decoded &middot; 38 inliers "
       "&middot; 0.50 px RMS &middot; change 3.0 mm &middot; change 0.12&deg; &middot; "
       "sequence 2.5 s &middot; 12.0 ms",
+      "planned path|12.2 m",
       "colour.r|1"};
   EXPECT_EQ(rows, expected);
 }

@@ -173,7 +173,9 @@ struct Fields<TargetMeasurements> {
             row("projection error over the content area")),
       field("light_off_target_fraction", &M::light_off_target_fraction, Presence::optional,
             row("light off the target (referee)", 1, " %", 100.0)),
-      field("calibration", &M::calibration, Presence::optional, row("projector calibration")));
+      field("calibration", &M::calibration, Presence::optional, row("projector calibration")),
+      field("planned_path_m", &M::planned_path_m, Presence::optional,
+            row("planned path", 1, " m")));
 };
 
 // The target's own fields, then its measurements' in line (one JSON object per target). The

@@ -63,6 +63,9 @@ struct TargetMeasurements {
   std::optional<double> observed_light_on_target;
   std::optional<AreaError> projection_error_area_mm;
   std::optional<double> light_off_target_fraction;
+  // The length of navigate's last plan to the stand-off pose (a replan replaces it): how far
+  // the visit's drive was meant to be.
+  std::optional<double> planned_path_m;
 };
 
 // The outcomes the executor gives a visit (Executor's record_visit), and a target
