@@ -51,6 +51,85 @@ inline float slab_entry(const float lo[3], const float hi[3], const float inv_d[
   return t0 <= t1 ? t0 : kInf;
 }
 
+// The best split of triangles order[first, first + count) by binned SAH over the centroid
+// bounds: the axis (-1 when no split beats a leaf) and the last bin on the left.
+struct SahSplit {
+  int axis = -1;
+  int bin = 0;
+};
+SahSplit best_sah_split(const std::vector<Box3>& tri_box,
+                        const std::vector<Eigen::Vector3f>& centroid,
+                        const std::vector<std::int32_t>& order, std::int32_t first,
+                        std::int32_t count, const Box3& bounds, const Box3& cbounds) {
+  int best_axis = -1, best_split = 0;
+  float best_cost = static_cast<float>(count) * bounds.area();
+  for (int a = 0; a < 3; ++a) {
+    const float extent = cbounds.hi[a] - cbounds.lo[a];
+    if (extent <= 0.0f) continue;
+    std::array<Box3, kBins> bin_box;
+    std::array<int, kBins> bin_count{};
+    const float scale = kBins / extent;
+    for (std::int32_t k = first; k < first + count; ++k) {
+      const int b =
+          std::min(kBins - 1, static_cast<int>((centroid[order[k]][a] - cbounds.lo[a]) * scale));
+      ++bin_count[b];
+      bin_box[b].grow(tri_box[order[k]]);
+    }
+    std::array<float, kBins> right_area{};
+    std::array<int, kBins> right_count{};
+    Box3 acc;
+    int cnt = 0;
+    for (int b = kBins - 1; b > 0; --b) {
+      acc.grow(bin_box[b]);
+      cnt += bin_count[b];
+      right_area[b] = acc.area();
+      right_count[b] = cnt;
+    }
+    acc = Box3();
+    cnt = 0;
+    for (int b = 0; b < kBins - 1; ++b) {
+      acc.grow(bin_box[b]);
+      cnt += bin_count[b];
+      const float cost = cnt * acc.area() + right_count[b + 1] * right_area[b + 1];
+      if (cnt > 0 && right_count[b + 1] > 0 && cost < best_cost) {
+        best_cost = cost;
+        best_axis = a;
+        best_split = b;
+      }
+    }
+  }
+  return {best_axis, best_split};
+}
+
+// A triangle's rows for the ray test, from its first corner `a` and its edges e1, e2.
+void triangle_rows(const Eigen::Vector3f& a, const Eigen::Vector3f& e1, const Eigen::Vector3f& e2,
+                   float* m) {
+  const Eigen::Vector3f n = e1.cross(e2);
+  int axis;
+  n.cwiseAbs().maxCoeff(&axis);
+  const int i1 = (axis + 1) % 3, i2 = (axis + 2) % 3;
+  const float inv = 1.0f / n[axis];
+  // Rows as in Baldwin & Weber (JCGT 2016), written for any dominant axis. Their constant
+  // terms come from c x a and b x a, which cancel catastrophically in float for a small
+  // triangle tens of metres from the origin (b1 off by ~0.4: rays slipped through meshes);
+  // instead each row is anchored at a, where both barycentrics are 0, in double.
+  m[axis] = 0.0f;
+  m[i1] = e2[i2] * inv;
+  m[i2] = -e2[i1] * inv;
+  m[4 + axis] = 0.0f;
+  m[4 + i1] = -e1[i2] * inv;
+  m[4 + i2] = e1[i1] * inv;
+  const Eigen::Vector3d a_d = a.cast<double>();
+  m[3] = static_cast<float>(
+      -(double{m[0]} * a_d.x() + double{m[1]} * a_d.y() + double{m[2]} * a_d.z()));
+  m[7] = static_cast<float>(
+      -(double{m[4]} * a_d.x() + double{m[5]} * a_d.y() + double{m[6]} * a_d.z()));
+  m[8 + axis] = 1.0f;
+  m[8 + i1] = n[i1] * inv;
+  m[8 + i2] = n[i2] * inv;
+  m[11] = -n.dot(a) * inv;
+}
+
 }  // namespace
 
 void SceneBuilder::add_triangle(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
@@ -194,43 +273,9 @@ Scene SceneBuilder::build() const {
     if (job.count <= kMaxLeafSize) continue;
 
     // Binned SAH over the centroid bounds.
-    int best_axis = -1, best_split = 0;
-    float best_cost = static_cast<float>(job.count) * bounds.area();
-    for (int a = 0; a < 3; ++a) {
-      const float extent = cbounds.hi[a] - cbounds.lo[a];
-      if (extent <= 0.0f) continue;
-      std::array<Box3, kBins> bin_box;
-      std::array<int, kBins> bin_count{};
-      const float scale = kBins / extent;
-      for (std::int32_t k = job.first; k < job.first + job.count; ++k) {
-        const int b =
-            std::min(kBins - 1, static_cast<int>((centroid[order[k]][a] - cbounds.lo[a]) * scale));
-        ++bin_count[b];
-        bin_box[b].grow(tri_box[order[k]]);
-      }
-      std::array<float, kBins> right_area{};
-      std::array<int, kBins> right_count{};
-      Box3 acc;
-      int cnt = 0;
-      for (int b = kBins - 1; b > 0; --b) {
-        acc.grow(bin_box[b]);
-        cnt += bin_count[b];
-        right_area[b] = acc.area();
-        right_count[b] = cnt;
-      }
-      acc = Box3();
-      cnt = 0;
-      for (int b = 0; b < kBins - 1; ++b) {
-        acc.grow(bin_box[b]);
-        cnt += bin_count[b];
-        const float cost = cnt * acc.area() + right_count[b + 1] * right_area[b + 1];
-        if (cnt > 0 && right_count[b + 1] > 0 && cost < best_cost) {
-          best_cost = cost;
-          best_axis = a;
-          best_split = b;
-        }
-      }
-    }
+    const SahSplit split =
+        best_sah_split(tri_box, centroid, order, job.first, job.count, bounds, cbounds);
+    const int best_axis = split.axis, best_split = split.bin;
     std::int32_t mid;
     if (best_axis >= 0) {
       const float lo = cbounds.lo[best_axis];
@@ -269,31 +314,7 @@ Scene SceneBuilder::build() const {
     const Eigen::Vector3f& a = corners_[3 * t];
     const Eigen::Vector3f e1 = corners_[3 * t + 1] - a;
     const Eigen::Vector3f e2 = corners_[3 * t + 2] - a;
-    const Eigen::Vector3f n = e1.cross(e2);
-    int axis;
-    n.cwiseAbs().maxCoeff(&axis);
-    const int i1 = (axis + 1) % 3, i2 = (axis + 2) % 3;
-    const float inv = 1.0f / n[axis];
-    float* m = scene.tris_[k].m;
-    // Rows as in Baldwin & Weber (JCGT 2016), written for any dominant axis. Their constant
-    // terms come from c x a and b x a, which cancel catastrophically in float for a small
-    // triangle tens of metres from the origin (b1 off by ~0.4: rays slipped through meshes);
-    // instead each row is anchored at a, where both barycentrics are 0, in double.
-    m[axis] = 0.0f;
-    m[i1] = e2[i2] * inv;
-    m[i2] = -e2[i1] * inv;
-    m[4 + axis] = 0.0f;
-    m[4 + i1] = -e1[i2] * inv;
-    m[4 + i2] = e1[i1] * inv;
-    const Eigen::Vector3d a_d = a.cast<double>();
-    m[3] = static_cast<float>(
-        -(double{m[0]} * a_d.x() + double{m[1]} * a_d.y() + double{m[2]} * a_d.z()));
-    m[7] = static_cast<float>(
-        -(double{m[4]} * a_d.x() + double{m[5]} * a_d.y() + double{m[6]} * a_d.z()));
-    m[8 + axis] = 1.0f;
-    m[8 + i1] = n[i1] * inv;
-    m[8 + i2] = n[i2] * inv;
-    m[11] = -n.dot(a) * inv;
+    triangle_rows(a, e1, e2, scene.tris_[k].m);
     scene.tri_normal_[k] = e1.cross(e2).normalized();
     scene.tri_object_[k] = objects_[t];
   }
