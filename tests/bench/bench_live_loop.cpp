@@ -17,8 +17,8 @@
 #include <random>
 
 #include "../core/perception/rendered_scenes.hpp"
-#include "projtour/light/beam_guard.hpp"
 #include "projtour/head/projection.hpp"
+#include "projtour/light/beam_guard.hpp"
 #include "projtour/perception/registration.hpp"
 #include "tracker.hpp"
 

@@ -34,8 +34,9 @@ namespace {
 using namespace ros2;
 using namespace std::chrono_literals;
 
-// The same lock files as the ROS 2 tests (tests/plugins/drivers/ros2/ros2_test_domain.hpp), so a benchmark run
-// beside the test suite never shares a domain with a test; held until this process ends.
+// The same lock files as the ROS 2 tests (tests/plugins/drivers/ros2/ros2_test_domain.hpp), so a
+// benchmark run beside the test suite never shares a domain with a test; held until this process
+// ends.
 int claim_dds_domain() {
   const int start = static_cast<int>((::getpid() + 97) % 200);
   for (int i = 0; i < 200; ++i) {

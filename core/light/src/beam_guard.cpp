@@ -59,8 +59,8 @@ bool BeamGuard::in_region(const Eigen::Vector2d& px, double z_m) const {
 }
 
 inline bool BeamGuard::reads_in_beam(const PinholeModel& k, int u, int v, std::uint16_t mm,
-                              const Eigen::Matrix3d& R, const Eigen::Vector3d& t_projector_colour,
-                              double* z_m) const {
+                                     const Eigen::Matrix3d& R,
+                                     const Eigen::Vector3d& t_projector_colour, double* z_m) const {
   if (mm == 0) return false;
   const double z = 1e-3 * mm;
   const Eigen::Vector3d ray((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);

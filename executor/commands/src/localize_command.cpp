@@ -24,10 +24,10 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "projtour/cli/options.hpp"
 #include "projtour/navigation/localizer.hpp"
 #include "projtour/navigation/occupancy_map.hpp"
 #include "projtour/navigation/path_planner.hpp"
-#include "projtour/cli/options.hpp"
 
 namespace projtour {
 

@@ -14,9 +14,9 @@
 #include <set>
 #include <sstream>
 
-#include "projtour/history/history.hpp"
 #include "projtour/formats/html_escape.hpp"
 #include "projtour/formats/json_io.hpp"
+#include "projtour/history/history.hpp"
 
 namespace projtour {
 

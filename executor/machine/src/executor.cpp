@@ -9,9 +9,9 @@
 #include <stdexcept>
 
 #include "projtour/contract/blackboard_keys.hpp"
-#include "projtour/navigation/occupancy_map.hpp"
 #include "projtour/contract/run_files.hpp"
 #include "projtour/formats/json_io.hpp"
+#include "projtour/navigation/occupancy_map.hpp"
 #include "projtour/record/measurements.hpp"
 
 namespace projtour {

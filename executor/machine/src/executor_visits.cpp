@@ -8,9 +8,9 @@
 #include <map>
 
 #include "projtour/contract/blackboard_keys.hpp"
-#include "projtour/navigation/occupancy_map.hpp"
 #include "projtour/contract/run_files.hpp"
 #include "projtour/machine/executor.hpp"
+#include "projtour/navigation/occupancy_map.hpp"
 
 namespace projtour {
 

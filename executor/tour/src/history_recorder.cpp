@@ -11,8 +11,8 @@
 #include <ostream>
 #include <random>
 
-#include "projtour/tour/history_proof.hpp"
 #include "projtour/record/target_record.hpp"
+#include "projtour/tour/history_proof.hpp"
 
 namespace projtour {
 

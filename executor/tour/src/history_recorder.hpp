@@ -13,8 +13,8 @@
 
 #include "projtour/contract/clock.hpp"
 #include "projtour/contract/mission.hpp"
-#include "projtour/record/events.hpp"
 #include "projtour/history/history.hpp"
+#include "projtour/record/events.hpp"
 #include "projtour/tour/runner.hpp"
 
 namespace projtour {

@@ -7,8 +7,8 @@
 
 #include "projtour/contract/drivers.hpp"
 #include "projtour/machine/executor.hpp"
-#include "projtour/views/monitor.hpp"
 #include "projtour/tour/runner.hpp"
+#include "projtour/views/monitor.hpp"
 
 namespace projtour {
 

@@ -10,8 +10,8 @@
 #include <sstream>
 
 #include "projtour/head/kinematics.hpp"
-#include "projtour/perception/model.hpp"
 #include "projtour/navigation/occupancy_map.hpp"
+#include "projtour/perception/model.hpp"
 
 namespace projtour {
 

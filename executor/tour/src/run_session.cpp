@@ -10,11 +10,11 @@
 #include "history_recorder.hpp"
 #include "monitor_hookup.hpp"
 #include "projtour/contract/ground_truth.hpp"
-#include "projtour/run/atomic_file.hpp"
 #include "projtour/formats/json_io.hpp"
+#include "projtour/run/atomic_file.hpp"
+#include "projtour/views/ros2_status.hpp"
 #include "projtour/views/summary_page.hpp"
 #include "projtour/views/tour_picture.hpp"
-#include "projtour/views/ros2_status.hpp"
 #include "run_session_parts.hpp"
 
 namespace projtour {

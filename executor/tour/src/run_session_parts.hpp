@@ -13,9 +13,9 @@
 #include <vector>
 
 #include "projtour/contract/context.hpp"
-#include "projtour/host/diagnostics.hpp"
 #include "projtour/contract/drivers.hpp"
 #include "projtour/contract/ground_truth.hpp"
+#include "projtour/host/diagnostics.hpp"
 #include "projtour/record/events.hpp"
 #include "projtour/tour/runner.hpp"
 #include "projtour/views/tour_picture.hpp"

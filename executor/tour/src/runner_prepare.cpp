@@ -1,8 +1,8 @@
 #include <mrpt/maps/COccupancyGridMap2D.h>
 
 #include "projtour/host/mission_loader.hpp"
-#include "projtour/navigation/occupancy_map.hpp"
 #include "projtour/host/params_reader.hpp"
+#include "projtour/navigation/occupancy_map.hpp"
 #include "projtour/tour/run_checks.hpp"
 #include "projtour/tour/runner.hpp"
 

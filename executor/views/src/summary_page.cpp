@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "assets.hpp"
-#include "projtour/run/atomic_file.hpp"
 #include "projtour/formats/html_escape.hpp"
 #include "projtour/record/record_fields.hpp"
+#include "projtour/run/atomic_file.hpp"
 #include "projtour/views/tour_picture.hpp"
 
 namespace projtour {

@@ -8,8 +8,8 @@
 #include <string>
 
 #include "projtour/contract/blackboard_keys.hpp"
-#include "projtour/navigation/localizer.hpp"
 #include "projtour/contract/plugin_author.hpp"
+#include "projtour/navigation/localizer.hpp"
 
 namespace projtour::localization {
 namespace {

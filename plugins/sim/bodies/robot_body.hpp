@@ -17,9 +17,9 @@
 #include <vector>
 
 #include "projtour/contract/drivers.hpp"
-#include "projtour/head/kinematics.hpp"
 #include "projtour/contract/robot.hpp"
 #include "projtour/contract/run_files.hpp"
+#include "projtour/head/kinematics.hpp"
 #include "projtour/host/world.hpp"
 #include "projtour_sim/colour_renderer.hpp"
 #include "projtour_sim/depth_renderer.hpp"

@@ -8,8 +8,8 @@
 #include <stdexcept>
 
 #include "bodies/body_ids.hpp"
-#include "projtour/perception/model.hpp"
 #include "projtour/navigation/occupancy_map.hpp"
+#include "projtour/perception/model.hpp"
 #include "world/random_streams.hpp"
 
 namespace projtour::sim {

@@ -10,11 +10,11 @@
 #include <iostream>
 #include <thread>
 
+#include "projtour/cli/options.hpp"
 #include "projtour/host/diagnostics.hpp"
 #include "projtour/host/mission_loader.hpp"
-#include "projtour/navigation/occupancy_map.hpp"
 #include "projtour/host/world.hpp"
-#include "projtour/cli/options.hpp"
+#include "projtour/navigation/occupancy_map.hpp"
 #include "projtour/ros2/dds.hpp"
 #include "projtour/ros2/messages.hpp"
 #include "projtour_sim/sim_world.hpp"

@@ -12,8 +12,8 @@
 #include <stdexcept>
 
 #include "projtour/contract/blackboard_keys.hpp"
-#include "projtour/head/kinematics.hpp"
 #include "projtour/contract/plugin_author.hpp"
+#include "projtour/head/kinematics.hpp"
 
 namespace projtour {
 namespace {

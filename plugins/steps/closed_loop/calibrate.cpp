@@ -11,10 +11,10 @@
 #include <sstream>
 
 #include "calibrate.hpp"
+#include "projtour/contract/run_image.hpp"
 #include "projtour/light/gray_code.hpp"
 #include "projtour/light/projector_fit.hpp"
 #include "projtour/light/registered_depth.hpp"
-#include "projtour/contract/run_image.hpp"
 
 namespace projtour::closed_loop {
 

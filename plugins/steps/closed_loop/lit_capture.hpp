@@ -13,10 +13,10 @@
 #include <string>
 #include <vector>
 
-#include "projtour/light/beam_guard.hpp"
 #include "projtour/contract/behaviour.hpp"
 #include "projtour/contract/colour_frame.hpp"
 #include "projtour/contract/context.hpp"
+#include "projtour/light/beam_guard.hpp"
 #include "step_names.hpp"
 #include "target_view.hpp"
 

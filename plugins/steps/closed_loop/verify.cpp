@@ -18,11 +18,11 @@
 #include <sstream>
 
 #include "projtour/contract/geometry.hpp"
+#include "projtour/contract/run_image.hpp"
 #include "projtour/light/light_check.hpp"
 #include "projtour/light/outline_match.hpp"
 #include "projtour/light/registered_depth.hpp"
 #include "projtour/perception/registration.hpp"
-#include "projtour/contract/run_image.hpp"
 
 namespace projtour::closed_loop {
 

@@ -18,13 +18,13 @@
 #include <stdexcept>
 
 #include "content_source.hpp"
-#include "projtour/light/beam_guard.hpp"
 #include "projtour/contract/blackboard_keys.hpp"
-#include "projtour/head/kinematics.hpp"
-#include "projtour/perception/model.hpp"
 #include "projtour/contract/plugin_author.hpp"
-#include "projtour/head/projection.hpp"
 #include "projtour/contract/run_image.hpp"
+#include "projtour/head/kinematics.hpp"
+#include "projtour/head/projection.hpp"
+#include "projtour/light/beam_guard.hpp"
+#include "projtour/perception/model.hpp"
 #include "step_names.hpp"
 #include "tracker.hpp"
 

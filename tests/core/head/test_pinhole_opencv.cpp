@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
+#include "projtour/contract/pinhole.hpp"
 #include "projtour/host/diagnostics.hpp"
 #include "projtour/host/mission_loader.hpp"
-#include "projtour/contract/pinhole.hpp"
 
 namespace projtour {
 namespace {

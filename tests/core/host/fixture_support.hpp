@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "projtour/contract/context.hpp"
-#include "projtour/host/diagnostics.hpp"
 #include "projtour/contract/params.hpp"
+#include "projtour/host/diagnostics.hpp"
 #include "projtour_test/run_rig.hpp"
 #include "projtour_test/temp_dir.hpp"
 

@@ -13,9 +13,9 @@
 
 #include "projtour/contract/colour_frame.hpp"
 #include "projtour/contract/depth_frame.hpp"
-#include "projtour/light/gray_code.hpp"
 #include "projtour/contract/model_cloud.hpp"
 #include "projtour/contract/pinhole.hpp"
+#include "projtour/light/gray_code.hpp"
 #include "projtour/light/registered_depth.hpp"
 
 namespace projtour::test {

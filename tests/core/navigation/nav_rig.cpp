@@ -6,10 +6,10 @@
 
 #include "projtour/contract/blackboard_keys.hpp"
 #include "projtour/contract/ground_truth.hpp"
-#include "projtour/navigation/localizer.hpp"
 #include "projtour/host/mission_loader.hpp"
-#include "projtour/navigation/occupancy_map.hpp"
 #include "projtour/host/params_reader.hpp"
+#include "projtour/navigation/localizer.hpp"
+#include "projtour/navigation/occupancy_map.hpp"
 
 namespace projtour::nav_test {
 

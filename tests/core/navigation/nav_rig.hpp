@@ -16,8 +16,8 @@
 #include "projtour/contract/context.hpp"
 #include "projtour/contract/logger.hpp"
 #include "projtour/contract/mission.hpp"
-#include "projtour/navigation/path_planner.hpp"
 #include "projtour/host/plugin_loader.hpp"
+#include "projtour/navigation/path_planner.hpp"
 #include "projtour_test/run_rig.hpp"
 
 namespace projtour::nav_test {

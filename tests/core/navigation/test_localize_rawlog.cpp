@@ -13,10 +13,10 @@
 #include <fstream>
 #include <sstream>
 
+#include "projtour/commands/localize_command.hpp"
 #include "projtour/navigation/localizer.hpp"
 #include "projtour/navigation/occupancy_map.hpp"
 #include "projtour/navigation/path_planner.hpp"
-#include "projtour/commands/localize_command.hpp"
 #include "projtour_test/temp_dir.hpp"
 
 namespace projtour {

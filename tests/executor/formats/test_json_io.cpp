@@ -11,11 +11,11 @@
 #include <string>
 
 #include "projtour/contract/mission.hpp"
-#include "projtour/run/atomic_file.hpp"
 #include "projtour/formats/json_io.hpp"
+#include "projtour/record/target_record.hpp"
+#include "projtour/run/atomic_file.hpp"
 #include "projtour/run/report.hpp"
 #include "projtour/views/summary_page.hpp"
-#include "projtour/record/target_record.hpp"
 #include "projtour_test/temp_dir.hpp"
 
 namespace projtour {

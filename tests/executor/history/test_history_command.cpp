@@ -14,8 +14,8 @@
 #include <sstream>
 #include <thread>
 
-#include "projtour/history/history.hpp"
 #include "projtour/formats/json_io.hpp"
+#include "projtour/history/history.hpp"
 #include "projtour_test/file_modes.hpp"
 #include "projtour_test/process.hpp"
 #include "projtour_test/run_files.hpp"

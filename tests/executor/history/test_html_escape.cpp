@@ -6,8 +6,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "projtour/history/history.hpp"
 #include "projtour/formats/html_escape.hpp"
+#include "projtour/history/history.hpp"
 #include "projtour_test/temp_dir.hpp"
 
 namespace projtour {

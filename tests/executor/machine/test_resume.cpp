@@ -5,8 +5,8 @@
 #include <fstream>
 
 #include "executor_harness.hpp"
-#include "projtour/run/atomic_file.hpp"
 #include "projtour/formats/json_io.hpp"
+#include "projtour/run/atomic_file.hpp"
 #include "projtour/run/report.hpp"
 #include "projtour_test/temp_dir.hpp"
 

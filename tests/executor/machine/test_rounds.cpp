@@ -9,9 +9,9 @@
 #include <utility>
 
 #include "executor_harness.hpp"
-#include "projtour/run/atomic_file.hpp"
-#include "projtour/record/checkpoint.hpp"
 #include "projtour/formats/json_io.hpp"
+#include "projtour/record/checkpoint.hpp"
+#include "projtour/run/atomic_file.hpp"
 #include "projtour_test/temp_dir.hpp"
 
 namespace projtour::testing {

@@ -7,8 +7,8 @@
 
 #include "projtour/formats/json_io.hpp"
 #include "projtour/record/record_fields.hpp"
-#include "projtour/views/summary_page.hpp"
 #include "projtour/record/target_record.hpp"
+#include "projtour/views/summary_page.hpp"
 
 namespace projtour {
 namespace {

@@ -12,12 +12,12 @@
 #include <sstream>
 
 #include "command_fixture.hpp"
+#include "projtour/contract/run_files.hpp"
+#include "projtour/formats/json_io.hpp"
+#include "projtour/history/history.hpp"
 #include "projtour/host/params_reader.hpp"
 #include "projtour/host/plugin_loader.hpp"
-#include "projtour/contract/run_files.hpp"
 #include "projtour/machine/executor.hpp"
-#include "projtour/history/history.hpp"
-#include "projtour/formats/json_io.hpp"
 #include "projtour_test/process.hpp"
 #include "projtour_test/run_files.hpp"
 #include "projtour_test/run_rig.hpp"

@@ -7,9 +7,9 @@
 #include <iostream>
 #include <opencv2/core.hpp>
 
+#include "projtour/contract/robot.hpp"
 #include "projtour/host/params_reader.hpp"
 #include "projtour/host/plugin_loader.hpp"
-#include "projtour/contract/robot.hpp"
 #include "projtour_sim/colour_renderer.hpp"
 #include "sim_world_rig.hpp"
 

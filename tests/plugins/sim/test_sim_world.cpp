@@ -6,10 +6,10 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "projtour/head/kinematics.hpp"
-#include "projtour/perception/model.hpp"
 #include "projtour/host/params_reader.hpp"
 #include "projtour/host/plugin_loader.hpp"
 #include "projtour/host/world.hpp"
+#include "projtour/perception/model.hpp"
 #include "sim_world_rig.hpp"
 
 namespace projtour::sim {

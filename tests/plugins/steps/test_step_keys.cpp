@@ -1,7 +1,7 @@
 // navigate and relocalize against the keys their descriptors declare: each runs in the
-// navigation tests' in-process dry run (tests/core/navigation/nav_rig.hpp) over a blackboard on which
-// every key it does not declare holds a value of a type no step uses (step_keys.hpp), so reading
-// or writing one throws, naming it. aim, project and next are checked the same way in
+// navigation tests' in-process dry run (tests/core/navigation/nav_rig.hpp) over a blackboard on
+// which every key it does not declare holds a value of a type no step uses (step_keys.hpp), so
+// reading or writing one throws, naming it. aim, project and next are checked the same way in
 // tests/core/head/test_behaviours.cpp.
 #include <gtest/gtest.h>
 

@@ -21,8 +21,8 @@
 #include <limits>
 #include <vector>
 
-#include "projtour/perception/model.hpp"
 #include "projtour/contract/pinhole.hpp"
+#include "projtour/perception/model.hpp"
 
 namespace mrpt::maps {
 class COccupancyGridMap2D;

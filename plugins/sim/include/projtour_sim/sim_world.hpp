@@ -28,8 +28,8 @@
 #include "projtour/contract/context.hpp"
 #include "projtour/contract/drivers.hpp"
 #include "projtour/contract/ground_truth.hpp"
-#include "projtour/perception/model.hpp"
 #include "projtour/host/world.hpp"
+#include "projtour/perception/model.hpp"
 #include "projtour_sim/colour_renderer.hpp"
 
 namespace cv {

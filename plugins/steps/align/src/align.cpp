@@ -8,9 +8,9 @@
 #include "alignment_image.hpp"
 #include "pcl_registration.hpp"
 #include "projtour/contract/blackboard_keys.hpp"
+#include "projtour/contract/plugin_author.hpp"
 #include "projtour/head/kinematics.hpp"
 #include "projtour/perception/model.hpp"
-#include "projtour/contract/plugin_author.hpp"
 #include "projtour/perception/registration.hpp"
 
 namespace projtour::align {

@@ -15,12 +15,12 @@
 #include "projtour/contract/blackboard_keys.hpp"
 #include "projtour/contract/ground_truth.hpp"
 #include "projtour/head/kinematics.hpp"
+#include "projtour/head/projection.hpp"
 #include "projtour/host/mission_loader.hpp"
-#include "projtour/perception/model.hpp"
-#include "projtour/navigation/occupancy_map.hpp"
 #include "projtour/host/params_reader.hpp"
 #include "projtour/host/plugin_loader.hpp"
-#include "projtour/head/projection.hpp"
+#include "projtour/navigation/occupancy_map.hpp"
+#include "projtour/perception/model.hpp"
 #include "projtour_test/run_rig.hpp"
 
 namespace projtour {

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "projtour/host/diagnostics.hpp"
 #include "projtour/contract/mission.hpp"
+#include "projtour/host/diagnostics.hpp"
 #include "projtour/host/world.hpp"
 
 namespace projtour {

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "projtour/host/diagnostics.hpp"
 #include "projtour/contract/geometry.hpp"
+#include "projtour/host/diagnostics.hpp"
 
 namespace projtour {
 

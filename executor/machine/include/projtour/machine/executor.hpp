@@ -15,10 +15,10 @@
 #include "projtour/contract/clock.hpp"
 #include "projtour/contract/context.hpp"
 #include "projtour/host/mission_loader.hpp"
-#include "projtour/navigation/path_planner.hpp"
 #include "projtour/machine/catalog.hpp"
-#include "projtour/record/events.hpp"
 #include "projtour/machine/machine.hpp"
+#include "projtour/navigation/path_planner.hpp"
+#include "projtour/record/events.hpp"
 
 namespace projtour {
 

@@ -18,9 +18,9 @@
 #include <string>
 #include <vector>
 
+#include "projtour/contract/params.hpp"
 #include "projtour/host/diagnostics.hpp"
 #include "projtour/host/mission_loader.hpp"
-#include "projtour/contract/params.hpp"
 #include "projtour/host/yaml_reader.hpp"
 #include "projtour/machine/catalog.hpp"
 

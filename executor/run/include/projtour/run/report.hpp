@@ -9,10 +9,10 @@
 
 #include "projtour/contract/ground_truth.hpp"
 #include "projtour/contract/mission.hpp"
+#include "projtour/formats/json_io.hpp"
+#include "projtour/machine/executor.hpp"
 #include "projtour/record/checkpoint.hpp"
 #include "projtour/record/events.hpp"
-#include "projtour/machine/executor.hpp"
-#include "projtour/formats/json_io.hpp"
 #include "projtour/record/target_record.hpp"
 
 namespace projtour {
@@ -34,7 +34,8 @@ struct RunSummary {
   std::optional<BuildingTruth> building;
 };
 
-// report.json (README.md, "The command"), and the referee's `building` section of a dry run in a busy world.
+// report.json (README.md, "The command"), and the referee's `building` section of a dry run in a
+// busy world.
 Json build_report(const RunSummary& summary);
 
 // The per-target table printed at the end of a run.

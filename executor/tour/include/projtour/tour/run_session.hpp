@@ -31,14 +31,14 @@
 #include "projtour/contract/context.hpp"
 #include "projtour/contract/drivers.hpp"
 #include "projtour/contract/logger.hpp"
+#include "projtour/machine/executor.hpp"
+#include "projtour/machine/watchdog.hpp"
 #include "projtour/record/checkpoint.hpp"
 #include "projtour/record/events.hpp"
-#include "projtour/machine/executor.hpp"
-#include "projtour/views/progress.hpp"
 #include "projtour/run/report.hpp"
 #include "projtour/run/run_directory.hpp"
 #include "projtour/tour/runner.hpp"
-#include "projtour/machine/watchdog.hpp"
+#include "projtour/views/progress.hpp"
 
 namespace projtour {
 

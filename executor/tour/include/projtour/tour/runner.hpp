@@ -13,10 +13,10 @@
 
 #include "projtour/host/diagnostics.hpp"
 #include "projtour/host/mission_loader.hpp"
-#include "projtour/navigation/occupancy_map.hpp"
 #include "projtour/host/plugin_loader.hpp"
 #include "projtour/machine/catalog.hpp"
 #include "projtour/machine/machine.hpp"
+#include "projtour/navigation/occupancy_map.hpp"
 
 namespace mrpt::maps {
 class COccupancyGridMap2D;

@@ -29,8 +29,8 @@
 #include <vector>
 
 #include "projtour/contract/geometry.hpp"
-#include "projtour/record/events.hpp"
 #include "projtour/machine/machine.hpp"
+#include "projtour/record/events.hpp"
 #include "projtour/record/target_record.hpp"
 
 namespace mrpt::maps {
