@@ -6,7 +6,7 @@
 # every plugin built against the recorded headers working (a comment, a new free function).
 cmake_minimum_required(VERSION 3.16)
 get_filename_component(dir ${CMAKE_CURRENT_LIST_FILE} DIRECTORY)
-file(GLOB headers RELATIVE ${dir} ${dir}/include/projtour/*.h ${dir}/include/projtour/*.hpp
+file(GLOB headers RELATIVE ${dir} ${dir}/include/projtour/contract/*.h ${dir}/include/projtour/contract/*.hpp
      ${dir}/contract_version.h.in)
 list(SORT headers)
 set(digest_input "")
