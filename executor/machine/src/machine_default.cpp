@@ -1,4 +1,4 @@
-// The default tour, executor/assets/default_machine.yaml, written in the same YAML a mission may
+// The default tour, executor/machine/default_machine.yaml, written in the same YAML a mission may
 // use to replace it. Its diagnostics name it kDefaultMachineFile, with the file's lines.
 #include "assets.hpp"
 #include "projtour/machine/machine.hpp"

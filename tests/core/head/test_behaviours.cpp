@@ -307,7 +307,7 @@ TEST(StepKeys, NextUsesNoKey) {
   expect_only_declared_keys(rig, "next");
 }
 
-// wait (plugins/closed_loop) keeps the projector blank for its duration and uses no key.
+// wait (plugins/steps/closed_loop) keeps the projector blank for its duration and uses no key.
 TEST(StepKeys, WaitUsesNoKey) {
   Rig rig;
   rig.registry.load_library(std::filesystem::path(PROJTOUR_PLUGIN_BUILD_DIR) /

@@ -3,7 +3,7 @@
 // external resources, so that it works on a robot with no network beyond the operator's laptop.
 // It draws from the monitor's JSON API (monitor.hpp) and takes its token from the URL fragment
 // (#token=...), which the browser never sends to the server, or from a field on the page.
-// Kept as files, executor/assets/monitor/ (HTML, CSS, script), put together into this one
+// Kept as files, executor/views/assets/monitor/ (HTML, CSS, script), put together into this one
 // document when the executor is built.
 
 namespace projtour {
