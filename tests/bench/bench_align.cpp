@@ -13,9 +13,9 @@
 #include <random>
 #include <tuple>
 
-#include "../core/perception/rendered_scenes.hpp"
 #include "pcl_registration.hpp"
 #include "projtour/perception/registration.hpp"
+#include "projtour_test/rendered_scenes.hpp"
 
 namespace projtour {
 namespace {
@@ -30,15 +30,16 @@ struct Case {
 };
 
 struct Fixture {
-  std::shared_ptr<const IcpModel> model;
+  std::shared_ptr<const perception::IcpModel> model;
   std::vector<Case> cases;
 };
 
 const Fixture& fixture() {
   static const Fixture f = [] {
     Fixture out;
-    const TriangleMesh mesh = load_mesh(PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply");
-    out.model = std::make_shared<const IcpModel>(sample_mesh(mesh, 0.003));
+    const perception::TriangleMesh mesh =
+        perception::load_mesh(PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply");
+    out.model = std::make_shared<const perception::IcpModel>(perception::sample_mesh(mesh, 0.003));
     std::mt19937 rng(2024);
     std::uniform_real_distribution<double> yaw(-0.35, 0.35), height(0.1, 0.4), side(-0.1, 0.1);
     for (int i = 0; i < kFrames; ++i) {
@@ -66,7 +67,7 @@ void run(benchmark::State& state, AlignOne align_one) {
   for (auto _ : state) {
     const Case& c = f.cases[i++ % f.cases.size()];
     const auto started = std::chrono::steady_clock::now();
-    const RegistrationResult r = align_one(f, c);
+    const perception::RegistrationResult r = align_one(f, c);
     times_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started)
             .count());
@@ -95,14 +96,15 @@ void run(benchmark::State& state, AlignOne align_one) {
   state.counters["success_pct"] = times_ms.empty() ? 0.0 : 100.0 * successes / times_ms.size();
 }
 
-OrganizedCloud crop(const Fixture& f, const Case& c) {
-  return crop_sphere(c.frame, Eigen::Vector3d::Zero(), c.guess.translation(),
-                     f.model->bounding_radius_m() + kCropMarginM);
+perception::OrganizedCloud crop(const Fixture& f, const Case& c) {
+  return perception::crop_sphere(c.frame, Eigen::Vector3d::Zero(), c.guess.translation(),
+                                 f.model->bounding_radius_m() + kCropMarginM);
 }
 
 void BM_projective_icp(benchmark::State& state) {
   run(state, [](const Fixture& f, const Case& c) {
-    return align_projective_icp(*f.model, c.frame, Eigen::Vector3d::Zero(), c.guess, kCropMarginM);
+    return perception::align_projective_icp(*f.model, c.frame, Eigen::Vector3d::Zero(), c.guess,
+                                            kCropMarginM);
   });
 }
 
@@ -133,15 +135,16 @@ const Fixture& scaling_fixture(const ScalingCase& s) {
   auto& slot = made[{s.model_points, s.distance_m, s.error_m}];
   if (slot) return *slot;
   slot = std::make_unique<Fixture>();
-  const TriangleMesh mesh = load_mesh(PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply");
-  const IcpModel full(sample_mesh(mesh, 0.003));
+  const perception::TriangleMesh mesh =
+      perception::load_mesh(PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply");
+  const perception::IcpModel full(perception::sample_mesh(mesh, 0.003));
   // A prefix of the prepared model is a uniform subsample of it.
   ModelCloud cloud;
   const std::size_t n = std::min<std::size_t>(full.points().size(), s.model_points);
   cloud.points.assign(full.points().begin(), full.points().begin() + n);
   cloud.normals.assign(full.normals().begin(), full.normals().begin() + n);
   cloud.bounding_radius_m = full.bounding_radius_m();
-  slot->model = std::make_shared<const IcpModel>(cloud);
+  slot->model = std::make_shared<const perception::IcpModel>(cloud);
   std::mt19937 rng(2024);
   std::uniform_real_distribution<double> yaw(-0.35, 0.35), height(0.1, 0.4), side(-0.1, 0.1);
   for (int i = 0; i < 20; ++i) {
@@ -164,8 +167,8 @@ void run_scaling(benchmark::State& state, const ScalingCase& s) {
   for (auto _ : state) {
     const Case& c = f.cases[i++ % f.cases.size()];
     const auto started = std::chrono::steady_clock::now();
-    const RegistrationResult r =
-        align_projective_icp(*f.model, c.frame, Eigen::Vector3d::Zero(), c.guess, kCropMarginM);
+    const perception::RegistrationResult r = perception::align_projective_icp(
+        *f.model, c.frame, Eigen::Vector3d::Zero(), c.guess, kCropMarginM);
     times_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started)
             .count());

@@ -41,7 +41,7 @@ struct Tour {
     run.dry_run = false;
     // Each kind plays its first outcome (its success) unless `scripts` says otherwise.
     for (const auto& [kind, outcomes] : test::tour_kinds()) {
-      Params p = default_params(testing::scripted_param_specs());
+      Params p = host::default_params(testing::scripted_param_specs());
       p.set("outcomes", scripts.count(kind) ? scripts.at(kind) : outcomes.front());
       p.set("ticks", ticks);
       catalog.add(kind, outcomes, {}, [p](const Params&, const RunContext& r) {
@@ -54,8 +54,8 @@ struct Tour {
 // The default machine over the tour's kinds; a benchmark error (not a crash) when it does not
 // load, as when the machine gains a kind the tour above lacks.
 std::optional<Machine> default_machine(benchmark::State& state, const InProcessCatalog& catalog) {
-  Diagnostics diag;
-  std::optional<Machine> machine = load_machine(MachineSource{}, catalog, diag);
+  host::Diagnostics diag;
+  std::optional<Machine> machine = load_machine(host::MachineSource{}, catalog, diag);
   if (!machine) {
     state.SkipWithError(diag.items().empty() ? "the default machine did not load"
                                              : diag.items().front().format().c_str());
@@ -98,8 +98,8 @@ BENCHMARK(BM_RetryHeavyTourTransitions)->Arg(100)->Unit(benchmark::kMicrosecond)
 void BM_LoadDefaultMachine(benchmark::State& state) {
   Tour tour(1, {});
   for (auto _ : state) {
-    Diagnostics diag;
-    auto machine = load_machine(MachineSource{}, tour.catalog, diag);
+    host::Diagnostics diag;
+    auto machine = load_machine(host::MachineSource{}, tour.catalog, diag);
     benchmark::DoNotOptimize(machine);
   }
 }
@@ -110,7 +110,7 @@ BENCHMARK(BM_LoadDefaultMachine)->Unit(benchmark::kMicrosecond);
 void BM_LoadTestingPlugin(benchmark::State& state) {
   const std::string file = std::string(PROJTOUR_PLUGIN_BUILD_DIR) + "/libprojtour_testing.so";
   for (auto _ : state) {
-    PluginRegistry registry;
+    host::PluginRegistry registry;
     registry.load_library(file);
     benchmark::DoNotOptimize(registry.find("scripted"));
   }

@@ -16,10 +16,10 @@
 #include <opencv2/core/utility.hpp>
 #include <random>
 
-#include "../core/perception/rendered_scenes.hpp"
 #include "projtour/head/projection.hpp"
 #include "projtour/light/beam_guard.hpp"
 #include "projtour/perception/registration.hpp"
+#include "projtour_test/rendered_scenes.hpp"
 #include "tracker.hpp"
 
 namespace projtour {
@@ -32,7 +32,7 @@ struct LiveScene {
   std::shared_ptr<const ModelCloud> cloud;
   PinholeModel projector;
   Eigen::Isometry3d T_projector_camera = Eigen::Isometry3d::Identity();
-  Quad3d model_points{};
+  head::Quad3d model_points{};
   Eigen::Isometry3d truth;
   std::vector<DepthFrame> still;   // the target at rest, noise differing frame to frame
   std::vector<DepthFrame> nudged;  // the same target 2 cm to the side
@@ -49,8 +49,9 @@ const LiveScene& scene() {
     // One core, as the goal is stated: OpenCV would otherwise spread the maps and the remap.
     cv::setNumThreads(1);
     LiveScene out;
-    const TriangleMesh mesh = load_mesh(PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply");
-    out.cloud = std::make_shared<const ModelCloud>(sample_mesh(mesh, 0.003));
+    const perception::TriangleMesh mesh =
+        perception::load_mesh(PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply");
+    out.cloud = std::make_shared<const ModelCloud>(perception::sample_mesh(mesh, 0.003));
     out.projector.width = 1280;
     out.projector.height = 800;
     out.projector.fx = out.projector.fy = 1400.0;
@@ -82,8 +83,9 @@ project::TrackSettings track_settings() {
   return t;  // the plugin's defaults: 1 mm / 0.5 deg, gate 0.6, crop margin 5 cm
 }
 
-ProjectedQuad quad_at(const LiveScene& s, const Eigen::Isometry3d& T_camera_model) {
-  return project_model_points(s.model_points, s.T_projector_camera * T_camera_model, s.projector);
+head::ProjectedQuad quad_at(const LiveScene& s, const Eigen::Isometry3d& T_camera_model) {
+  return head::project_model_points(s.model_points, s.T_projector_camera * T_camera_model,
+                                    s.projector);
 }
 
 void BM_live_align(benchmark::State& state) {
@@ -111,8 +113,8 @@ void BM_live_beam_watch(benchmark::State& state) {
 
 void BM_live_warp_maps(benchmark::State& state) {
   const LiveScene& s = scene();
-  ContentWarper warper(s.projector);
-  const ProjectedQuad quads[2] = {quad_at(s, s.truth), quad_at(s, s.nudged_truth)};
+  head::ContentWarper warper(s.projector);
+  const head::ProjectedQuad quads[2] = {quad_at(s, s.truth), quad_at(s, s.nudged_truth)};
   std::size_t i = 0;
   for (auto _ : state) warper.set_target(s.content.size(), quads[i++ % 2]);
   // The projector pixels the maps cover (the content's reach), of the frame's 1,024,000.
@@ -121,7 +123,7 @@ void BM_live_warp_maps(benchmark::State& state) {
 
 void BM_live_remap(benchmark::State& state) {
   const LiveScene& s = scene();
-  ContentWarper warper(s.projector);
+  head::ContentWarper warper(s.projector);
   warper.set_target(s.content.size(), quad_at(s, s.truth));
   cv::Mat frame;
   for (auto _ : state) {
@@ -140,7 +142,7 @@ void BM_live_frame(benchmark::State& state) {
   tracker.start(s.cloud, s.truth);
   light::BeamGuard guard;
   guard.arm(s.T_projector_camera, s.projector, quad_at(s, s.truth).ideal_pixels, *s.cloud, s.truth);
-  ContentWarper warper(s.projector);
+  head::ContentWarper warper(s.projector);
   warper.set_target(s.content.size(), quad_at(s, s.truth));
   Eigen::Isometry3d shown = s.T_projector_camera * s.truth;
   std::vector<double> frame_ms;

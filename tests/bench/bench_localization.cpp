@@ -24,11 +24,11 @@ std::shared_ptr<mrpt::obs::CObservation2DRangeScan> corridor_scan(
 
 void BM_LocalizationUpdate(benchmark::State& state) {
   static const auto map =
-      projtour::load_occupancy_grid(PROJTOUR_SOURCE_DIR "/maps/malaga_campus.yaml");
+      projtour::navigation::load_occupancy_grid(PROJTOUR_SOURCE_DIR "/maps/malaga_campus.yaml");
   const auto scan = corridor_scan(*map);
-  projtour::LocalizerOptions options;
+  projtour::navigation::LocalizerOptions options;
   options.particles = static_cast<int>(state.range(0));
-  projtour::Localizer localizer(*map, options, 1);
+  projtour::navigation::Localizer localizer(*map, options, 1);
   localizer.reset(kPose);
   const projtour::Pose2D step{0.05, 0.0, 0.0};
   for (auto _ : state) localizer.update(step, *scan);

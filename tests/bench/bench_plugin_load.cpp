@@ -13,7 +13,7 @@ const std::filesystem::path kFixtureDir = PROJTOUR_FIXTURE_DIR;
 void BM_LoadPlugin(benchmark::State& state) {
   const auto file = kFixtureDir / "libpt_fixture_good.so";
   for (auto _ : state) {
-    projtour::PluginRegistry registry;
+    projtour::host::PluginRegistry registry;
     registry.load_library(file);
     benchmark::DoNotOptimize(registry.find("fixture_wait"));
   }
@@ -24,7 +24,7 @@ BENCHMARK(BM_LoadPlugin)->Unit(benchmark::kMicrosecond);
 void BM_LoadFixtureDirectory(benchmark::State& state) {
   std::size_t failures = 0;
   for (auto _ : state) {
-    projtour::PluginRegistry registry;
+    projtour::host::PluginRegistry registry;
     failures = registry.load_directories({kFixtureDir}).size();
     benchmark::DoNotOptimize(registry.kinds());
   }

@@ -21,8 +21,8 @@ struct BenchScene {
       sim::testing::camera_optical(0.0, 0.0, 1.2, 0.0, deg_to_rad(10.0));
 
   BenchScene() {
-    const TriangleMesh bunny =
-        load_mesh(std::string(PROJTOUR_SOURCE_DIR) + "/examples/models/bunny.ply");
+    const perception::TriangleMesh bunny =
+        perception::load_mesh(std::string(PROJTOUR_SOURCE_DIR) + "/examples/models/bunny.ply");
     sim::SceneBuilder builder;
     for (int k = 0; k < 4; ++k) {
       // Facing the camera (+x of the model towards -x of the world), side by side.

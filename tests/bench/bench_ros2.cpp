@@ -93,7 +93,7 @@ constexpr double kTick_s = 0.05;  // the executor's 20 Hz tick, the dry run's st
 
 // The demo tour's robot on `domain`, loopback only: the topics and QoS the bridge uses too.
 void load_demo(test::RunRig& rig, int domain) {
-  rig.mission = load_mission_or_throw(kMission);
+  rig.mission = host::load_mission_or_throw(kMission);
   rig.mission.robot.ros2.domain_id = domain;
   rig.mission.robot.ros2.loopback_only = true;
 }
@@ -240,10 +240,10 @@ BENCHMARK(BM_BridgeRoundTrip)
 // wheels, the scan when due, the true pose and the odometry — 10,000 ticks of 0.05 s spinning in
 // place. BM_BridgeRoundTrip less this is what DDS and the two processes add.
 void BM_BridgeStepInProcess(benchmark::State& state) {
-  Diagnostics diag;
-  auto mission = load_mission(kMission, diag);
-  std::optional<WorldSpec> world;
-  if (mission) world = load_world(kWorld, *mission, diag);
+  host::Diagnostics diag;
+  auto mission = host::load_mission(kMission, diag);
+  std::optional<host::WorldSpec> world;
+  if (mission) world = host::load_world(kWorld, *mission, diag);
   if (!mission || !world || diag.has_errors()) {
     state.SkipWithError(diag.format().c_str());
     return;
@@ -253,7 +253,7 @@ void BM_BridgeStepInProcess(benchmark::State& state) {
   run.world = &*world;
   run.dry_run = true;
   run.seed = 1;
-  run.map = load_occupancy_grid(mission->map);
+  run.map = navigation::load_occupancy_grid(mission->map);
   sim::SimWorld sim(run);
   sim.set_velocity_time_constant(0.1);
   sim.set_laser_occupancy_threshold(0.6);

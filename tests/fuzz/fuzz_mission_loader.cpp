@@ -71,9 +71,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string text(reinterpret_cast<const char*>(data), size);
   if (text.find_first_of("/\\") != std::string::npos) return 0;
 
-  projtour::Diagnostics diag;
+  projtour::host::Diagnostics diag;
   const auto mission =
-      projtour::load_mission_from_string(text, sandbox.dir() / "mission.yaml", diag);
+      projtour::host::load_mission_from_string(text, sandbox.dir() / "mission.yaml", diag);
   // The promise of the API: a mission exactly when no error was recorded.
   if (mission.has_value() == diag.has_errors()) abort();
   const std::string report = diag.format();

@@ -31,7 +31,7 @@ ParamSpec param(const char* name, ParamType type, const char* default_value) {
   return p;
 }
 
-KeyUse key(const char* name, const char* type, KeyAccess access) {
+host::KeyUse key(const char* name, const char* type, host::KeyAccess access) {
   return {name, type, access};
 }
 
@@ -39,8 +39,9 @@ class FixedCatalog : public BehaviourCatalog {
  public:
   FixedCatalog() {
     using T = ParamType;
-    const KeyAccess r = KeyAccess::read, may = KeyAccess::read_if_present, w = KeyAccess::write;
-    const KeyUse estimate = key("localization.estimate", "PoseEstimate2D", r);
+    const host::KeyAccess r = host::KeyAccess::read, may = host::KeyAccess::read_if_present,
+                          w = host::KeyAccess::write;
+    const host::KeyUse estimate = key("localization.estimate", "PoseEstimate2D", r);
     behaviour("navigate", {"succeeded", "unreachable", "blocked", "timeout", "lost"},
               {param("tolerance_m", T::number, "0.10"), param("timeout_s", T::number, "600")},
               {estimate, key("localization.converged", "bool", may),
@@ -89,11 +90,11 @@ class FixedCatalog : public BehaviourCatalog {
               {});
     // A kind that declares no outcome of its own can only fail (a dead end to prove).
     behaviour("doomed", {}, {}, {});
-    other("sim_base", Family::driver);
-    other("mrpt_localization", Family::service);
+    other("sim_base", host::Family::driver);
+    other("mrpt_localization", host::Family::service);
   }
 
-  const KindInfo* find(const std::string& kind) const override {
+  const host::KindInfo* find(const std::string& kind) const override {
     const auto it = kinds_.find(kind);
     return it == kinds_.end() ? nullptr : &it->second;
   }
@@ -113,35 +114,35 @@ class FixedCatalog : public BehaviourCatalog {
 
  private:
   void behaviour(const char* name, std::vector<std::string> outcomes, std::vector<ParamSpec> params,
-                 std::vector<KeyUse> keys) {
-    KindInfo& k = kinds_[name];
+                 std::vector<host::KeyUse> keys) {
+    host::KindInfo& k = kinds_[name];
     k.name = name;
     k.outcomes = std::move(outcomes);
     k.params = std::move(params);
     k.keys = std::move(keys);
   }
-  void other(const char* name, Family family) {
-    KindInfo& k = kinds_[name];
+  void other(const char* name, host::Family family) {
+    host::KindInfo& k = kinds_[name];
     k.name = name;
     k.family = family;
   }
 
-  std::map<std::string, KindInfo> kinds_;
+  std::map<std::string, host::KindInfo> kinds_;
 };
 
 // What mrpt_localization writes, the service a run's machine is checked against.
-const std::vector<KeyUse>& service_writes() {
-  static const std::vector<KeyUse> kWrites = {
-      key("localization.estimate", "PoseEstimate2D", KeyAccess::write),
-      key("localization.converged", "bool", KeyAccess::write),
-      key("localization.scan", "LaserScan", KeyAccess::write)};
+const std::vector<host::KeyUse>& service_writes() {
+  static const std::vector<host::KeyUse> kWrites = {
+      key("localization.estimate", "PoseEstimate2D", host::KeyAccess::write),
+      key("localization.converged", "bool", host::KeyAccess::write),
+      key("localization.scan", "LaserScan", host::KeyAccess::write)};
   return kWrites;
 }
 
 // The promise of the API: a machine exactly when no error was recorded, every error said.
-void check_outcome(bool loaded, const Diagnostics& diag) {
+void check_outcome(bool loaded, const host::Diagnostics& diag) {
   if (loaded == diag.has_errors()) std::abort();
-  for (const Diagnostic& d : diag.items()) {
+  for (const host::Diagnostic& d : diag.items()) {
     if (d.message.empty()) std::abort();
   }
 }
@@ -150,11 +151,11 @@ void check_machine(const Machine& machine, const BehaviourCatalog& catalog) {
   for (const StateSpec* s : machine.states()) {
     if (machine.find(s->path) != s) std::abort();
     if (s->is_leaf()) {
-      const KindInfo* kind = catalog.find(s->behaviour);
-      if (kind == nullptr || kind->family != Family::behaviour) std::abort();
+      const host::KindInfo* kind = catalog.find(s->behaviour);
+      if (kind == nullptr || kind->family != host::Family::behaviour) std::abort();
     }
   }
-  Diagnostics data;
+  host::Diagnostics data;
   check_machine_data(machine, catalog, service_writes(), data);
   if (machine_to_dot(machine, &catalog).rfind("digraph machine {", 0) != 0) std::abort();
 }
@@ -167,24 +168,24 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   static const FixedCatalog catalog;
   const std::string text(reinterpret_cast<const char*>(data), size);
 
-  Diagnostics diag;
-  const auto node = load_yaml_string(text, kFile, diag);
+  host::Diagnostics diag;
+  const auto node = host::load_yaml_string(text, kFile, diag);
   if (!node) {
     if (!diag.has_errors()) std::abort();
     return 0;
   }
   // A machine file of its own, as `projtour graph` and the tests read one.
-  const auto machine = load_machine(YamlField(*node, kFile, diag), catalog, diag);
+  const auto machine = load_machine(host::YamlField(*node, kFile, diag), catalog, diag);
   check_outcome(machine.has_value(), diag);
   if (machine) check_machine(*machine, catalog);
 
   // The same mapping as a mission's inline `machine:`, which must also visit the targets.
-  MachineSource source;
+  host::MachineSource source;
   source.is_default = false;
   source.node = *node;
   source.file = kFile;
   source.path = "machine";
-  Diagnostics mission_diag;
+  host::Diagnostics mission_diag;
   const auto mission_machine = load_machine(source, catalog, mission_diag);
   check_outcome(mission_machine.has_value(), mission_diag);
   // Where the mapping sits changes the field paths, not the verdict: only the for_each check

@@ -10,7 +10,7 @@
 #include "projtour/contract/geometry.hpp"
 #include "projtour/head/projection.hpp"
 
-namespace projtour {
+namespace projtour::head {
 
 namespace {
 
@@ -399,4 +399,4 @@ std::optional<JointAngles> HeadKinematics::aim_projector_at(const Eigen::Vector3
   });
 }
 
-}  // namespace projtour
+}  // namespace projtour::head

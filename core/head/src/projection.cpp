@@ -8,7 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace projtour {
+namespace projtour::head {
 
 namespace {
 
@@ -290,4 +290,4 @@ Eigen::Vector2d ContentWarper::content_at(const Eigen::Vector2d& pixel) const {
          fv * ((1 - fu) * content(u0, v0 + 1) + fu * content(u0 + 1, v0 + 1));
 }
 
-}  // namespace projtour
+}  // namespace projtour::head

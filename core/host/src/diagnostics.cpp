@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-namespace projtour {
+namespace projtour::host {
 
 namespace {
 
@@ -145,4 +145,4 @@ std::string closest_match(const std::string& word, const std::vector<std::string
   return best;
 }
 
-}  // namespace projtour
+}  // namespace projtour::host

@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 
-namespace projtour::loader {
+namespace projtour::host::loader {
 
 void check_unique_keys(const YamlField& field) {
   if (!field.is_map()) return;
@@ -184,4 +184,4 @@ bool is_portable_id(const std::string& id) {
   });
 }
 
-}  // namespace projtour::loader
+}  // namespace projtour::host::loader

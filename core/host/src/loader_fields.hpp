@@ -14,7 +14,7 @@
 #include "projtour/host/mission_loader.hpp"
 #include "projtour/host/yaml_reader.hpp"
 
-namespace projtour::loader {
+namespace projtour::host::loader {
 
 // Repeated keys are errors: yaml-cpp accepts them silently and the first one wins.
 void check_unique_keys(const YamlField& field);
@@ -56,4 +56,4 @@ extern template std::optional<std::array<double, 3>> read_numbers<3>(const YamlF
 extern template std::optional<std::array<double, 5>> read_numbers<5>(const YamlField&, bool,
                                                                      const std::string&);
 
-}  // namespace projtour::loader
+}  // namespace projtour::host::loader

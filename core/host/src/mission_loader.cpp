@@ -7,7 +7,7 @@
 
 #include "loader_fields.hpp"
 
-namespace projtour {
+namespace projtour::host {
 
 namespace {
 
@@ -406,4 +406,4 @@ LoadedMission load_mission_or_throw(const std::filesystem::path& file) {
   return std::move(*mission);
 }
 
-}  // namespace projtour
+}  // namespace projtour::host

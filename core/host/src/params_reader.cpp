@@ -2,7 +2,7 @@
 
 #include <stdexcept>
 
-namespace projtour {
+namespace projtour::host {
 
 namespace {
 
@@ -66,4 +66,4 @@ Params default_params(const std::vector<ParamSpec>& schema) {
   return params;
 }
 
-}  // namespace projtour
+}  // namespace projtour::host

@@ -23,7 +23,7 @@
 
 namespace fs = std::filesystem;
 
-namespace projtour {
+namespace projtour::host {
 
 // Owns one dlopen handle; the last shared_ptr to it (the registry's, or one held by an object's
 // deleter) closes the library.
@@ -666,4 +666,4 @@ std::string PluginRegistry::validate_params(const std::string& kind, const Param
   return error[0] != '\0' ? std::string(error.data()) : "invalid parameters";
 }
 
-}  // namespace projtour
+}  // namespace projtour::host

@@ -6,7 +6,7 @@
 #include "loader_fields.hpp"
 #include "projtour/host/mission_loader.hpp"
 
-namespace projtour {
+namespace projtour::host {
 
 namespace {
 
@@ -467,4 +467,4 @@ std::optional<LoadedRobot> load_robot(const std::filesystem::path& file, Diagnos
   return read_robot(*node, file.string(), diag);
 }
 
-}  // namespace projtour
+}  // namespace projtour::host

@@ -4,7 +4,7 @@
 
 #include <stdexcept>
 
-namespace projtour {
+namespace projtour::host {
 
 namespace {
 
@@ -93,4 +93,4 @@ double fault_number(const FaultSpec& fault, const std::string& key) {
   return it == fault.values.end() ? fault_default(fault.type, key) : it->second;
 }
 
-}  // namespace projtour
+}  // namespace projtour::host

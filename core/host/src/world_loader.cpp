@@ -5,7 +5,7 @@
 #include "projtour/host/mission_loader.hpp"
 #include "projtour/host/world_faults.hpp"
 
-namespace projtour {
+namespace projtour::host {
 
 namespace {
 
@@ -385,4 +385,4 @@ std::optional<WorldSpec> load_world(const std::filesystem::path& file, const Mis
   return read_world(*node, file.string(), mission, diag);
 }
 
-}  // namespace projtour
+}  // namespace projtour::host

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <fstream>
 
-namespace projtour {
+namespace projtour::host {
 
 namespace {
 
@@ -271,4 +271,4 @@ std::string YamlField::get_string(const std::string& key, const std::string& fal
   return (*this)[key].as_string(false).value_or(fallback);
 }
 
-}  // namespace projtour
+}  // namespace projtour::host

@@ -30,7 +30,7 @@ void check_depth(const DepthFrame& depth, const PinholeModel& colour) {
 // unless the depth lens has distortion.
 class DepthRays {
  public:
-  explicit DepthRays(const PinholeModel& k, int width, int height) : k_(k), width_(width) {
+  explicit DepthRays(const PinholeModel& k, int width, int height) : width_(width) {
     distorted_ = k.has_distortion();
     if (distorted_) {
       rays_.resize(static_cast<std::size_t>(width) * height);
@@ -53,7 +53,6 @@ class DepthRays {
   }
 
  private:
-  const PinholeModel& k_;
   int width_;
   bool distorted_ = false;
   std::vector<float> x_, y_;

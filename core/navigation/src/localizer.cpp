@@ -19,7 +19,7 @@
 
 #include "projtour/navigation/path_planner.hpp"
 
-namespace projtour {
+namespace projtour::navigation {
 
 struct Localizer::Impl {
   // The particle filter's map: the walls' boundary at 0 and every other cell free, or the map
@@ -417,4 +417,4 @@ Pose2D pose_compose(const Pose2D& a, const Pose2D& delta) {
                 wrap_angle_rad(a.yaw_rad + delta.yaw_rad)};
 }
 
-}  // namespace projtour
+}  // namespace projtour::navigation

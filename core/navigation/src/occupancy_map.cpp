@@ -18,7 +18,7 @@
 
 #include "projtour/navigation/path_planner.hpp"
 
-namespace projtour {
+namespace projtour::navigation {
 
 namespace {
 
@@ -356,4 +356,4 @@ std::vector<MapProblem> check_mission_on_map(const MissionSpec& mission,
   return problems;
 }
 
-}  // namespace projtour
+}  // namespace projtour::navigation

@@ -9,7 +9,7 @@
 #include <queue>
 #include <stdexcept>
 
-namespace projtour {
+namespace projtour::navigation {
 
 namespace {
 
@@ -262,4 +262,4 @@ bool PathPlanner::Reachable::contains(const Eigen::Vector2d& p_m) const {
   return mask_[static_cast<std::size_t>(cy) * grid_->size_x() + cx] != 0;
 }
 
-}  // namespace projtour
+}  // namespace projtour::navigation

@@ -10,7 +10,7 @@
 
 #include "projtour/contract/depth_frame.hpp"
 
-namespace projtour::detail {
+namespace projtour::perception::detail {
 
 // The window of the image bounding a sphere's projection, and the per-pixel test.
 struct SphereCrop {
@@ -75,4 +75,4 @@ std::size_t crop_rows(const DepthFrame& frame, const SphereCrop& crop, const Win
                       int v_lo, int v_hi, int u_lo, int u_hi, float* x, float* y, float* z,
                       std::size_t out_stride);
 
-}  // namespace projtour::detail
+}  // namespace projtour::perception::detail

@@ -19,7 +19,7 @@
 #include "projtour/perception/registration.hpp"
 #include "vector_clones.hpp"
 
-namespace projtour {
+namespace projtour::perception {
 namespace {
 
 // The model's first n points and normals in the camera frame, as planes, with where each lands
@@ -356,4 +356,4 @@ bool associate(const Level& level, const Eigen::Vector3f& p, int i, int j, int r
 }
 
 }  // namespace
-}  // namespace projtour
+}  // namespace projtour::perception

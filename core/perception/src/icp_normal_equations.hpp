@@ -11,7 +11,7 @@
 #include "icp_scratch.hpp"
 #include "vector_clones.hpp"
 
-namespace projtour {
+namespace projtour::perception {
 namespace {
 
 Eigen::Isometry3d apply_twist(const Eigen::Matrix<double, 6, 1>& xi, const Eigen::Isometry3d& T) {
@@ -145,4 +145,4 @@ class NormalEquations {
 };
 
 }  // namespace
-}  // namespace projtour
+}  // namespace projtour::perception

@@ -21,7 +21,7 @@
 #include "icp_scratch.hpp"
 #include "projtour/perception/registration.hpp"
 
-namespace projtour {
+namespace projtour::perception {
 namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
@@ -358,4 +358,4 @@ void Level::ensure(int i, int j) const {
 }
 
 }  // namespace
-}  // namespace projtour
+}  // namespace projtour::perception

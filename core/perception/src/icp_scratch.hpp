@@ -8,7 +8,7 @@
 #include <type_traits>
 #include <vector>
 
-namespace projtour {
+namespace projtour::perception {
 namespace {
 
 // Buffers an alignment fills anew and throws away: kept per thread from one alignment to the
@@ -63,4 +63,4 @@ class Scratch {
 };
 
 }  // namespace
-}  // namespace projtour
+}  // namespace projtour::perception

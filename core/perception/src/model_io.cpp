@@ -22,7 +22,7 @@
 
 #include "projtour/perception/model.hpp"
 
-namespace projtour {
+namespace projtour::perception {
 namespace {
 
 std::string lower_extension(const std::filesystem::path& file) {
@@ -288,4 +288,4 @@ ModelCloud load_model_cloud(const std::filesystem::path& file, double spacing_m)
   return out;
 }
 
-}  // namespace projtour
+}  // namespace projtour::perception

@@ -11,7 +11,7 @@
 #include "projtour/perception/registration.hpp"
 #include "vector_clones.hpp"
 
-namespace projtour {
+namespace projtour::perception {
 
 std::size_t OrganizedCloud::valid_count() const {
   return static_cast<std::size_t>(std::count_if(points.begin(), points.end(),
@@ -323,4 +323,4 @@ DepthFrame average_depth_frames(const std::vector<DepthFrame>& frames) {
   return out;
 }
 
-}  // namespace projtour
+}  // namespace projtour::perception

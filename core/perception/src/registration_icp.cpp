@@ -25,7 +25,7 @@
 #include "projtour/contract/geometry.hpp"
 #include "projtour/perception/registration.hpp"
 
-namespace projtour {
+namespace projtour::perception {
 
 std::vector<IcpStage> IcpOptions::default_stages() {
   // Coarse levels see the whole target in few pixels, and their window lets a model point find
@@ -382,4 +382,4 @@ PoseSpread pose_spread(const IcpModel& model, const OrganizedCloud& scene,
   return out;
 }
 
-}  // namespace projtour
+}  // namespace projtour::perception

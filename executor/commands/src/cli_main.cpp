@@ -162,7 +162,7 @@ int projtour_cli_main(int argc, char** argv) {
       const auto options = parse_options(argc, argv, 0);
       return projtour::run_plugins_command(
           options.plugin_paths, std::cout, std::cerr,
-          projtour::PluginLoadOptions{options.allow_writable_plugin_path});
+          projtour::host::PluginLoadOptions{options.allow_writable_plugin_path});
     }
     if (command == "localize") {
 #ifdef PROJTOUR_HAS_LOCALIZE

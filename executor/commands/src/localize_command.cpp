@@ -42,9 +42,9 @@ struct Arguments {
   std::string map, rawlog, out, truth, score;
   Pose2D init;
   bool have_init = false;
-  int particles = LocalizerOptions{}.particles;
+  int particles = navigation::LocalizerOptions{}.particles;
   std::uint64_t seed = 1;
-  LocalizerOptions::Field field = LocalizerOptions{}.lf_field;
+  navigation::LocalizerOptions::Field field = navigation::LocalizerOptions{}.lf_field;
   int from_scan = 0;
 };
 
@@ -102,7 +102,7 @@ const StampedPose* nearest(const std::vector<StampedPose>& trajectory, double t_
 // Distance from each cell's centre to the nearest wall face. The face runs between cells, half a
 // cell from the centres on either side of it.
 cv::Mat wall_face_distance_m(const mrpt::maps::COccupancyGridMap2D& map) {
-  cv::Mat distance_m = (wall_face_distance_cells(map) - 0.5) * map.getResolution();
+  cv::Mat distance_m = (navigation::wall_face_distance_cells(map) - 0.5) * map.getResolution();
   return cv::max(distance_m, 0.0);
 }
 
@@ -110,7 +110,7 @@ cv::Mat wall_face_distance_m(const mrpt::maps::COccupancyGridMap2D& map) {
 std::pair<std::size_t, std::size_t> endpoints_on_map(
     const mrpt::maps::COccupancyGridMap2D& map, const cv::Mat& distance_m, const Pose2D& pose,
     const mrpt::obs::CObservation2DRangeScan& scan) {
-  const std::vector<Eigen::Vector2d> ends = scan_endpoints_m(pose, scan);
+  const std::vector<Eigen::Vector2d> ends = navigation::scan_endpoints_m(pose, scan);
   std::size_t on = 0;
   for (const Eigen::Vector2d& end : ends) {
     const int cx = map.x2idx(end.x()), cy = map.y2idx(end.y());
@@ -154,9 +154,9 @@ std::optional<Arguments> parse(int argc, char** argv) {
   app.add_option_function<std::string>("--score", [&](const std::string& v) { args.score = v; });
   app.add_option_function<std::string>("--field", [&](const std::string& v) {
     if (v == "boundary") {
-      args.field = LocalizerOptions::Field::boundary;
+      args.field = navigation::LocalizerOptions::Field::boundary;
     } else if (v == "occupied") {
-      args.field = LocalizerOptions::Field::occupied;
+      args.field = navigation::LocalizerOptions::Field::occupied;
     } else {
       throw CLI::ValidationError("--field", "expects boundary or occupied, got \"" + v + "\"");
     }
@@ -245,7 +245,7 @@ struct Inputs {
 
 bool load_inputs(const Arguments& args, Inputs& in) {
   try {
-    in.map = load_occupancy_grid(args.map);
+    in.map = navigation::load_occupancy_grid(args.map);
   } catch (const std::exception& e) {
     std::cerr << "projtour localize: " << e.what() << "\n";
     return false;
@@ -276,7 +276,8 @@ struct Tally {
 // trajectory scored), its pose written out and checked against the map and the truth.
 class Replay {
  public:
-  Replay(const Arguments& args, const Inputs& in, Localizer& localizer, std::ostream& out)
+  Replay(const Arguments& args, const Inputs& in, navigation::Localizer& localizer,
+         std::ostream& out)
       : args_(args),
         in_(in),
         localizer_(localizer),
@@ -323,7 +324,7 @@ class Replay {
   void observation(const mrpt::obs::CObservation::Ptr& obs) {
     if (const auto odo = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(obs)) {
       const Pose2D now{odo->odometry.x(), odo->odometry.y(), odo->odometry.phi()};
-      if (last_odometry_) add_odometry(pose_delta(*last_odometry_, now));
+      if (last_odometry_) add_odometry(navigation::pose_delta(*last_odometry_, now));
       last_odometry_ = now;
     } else if (const auto scan =
                    std::dynamic_pointer_cast<mrpt::obs::CObservation2DRangeScan>(obs)) {
@@ -331,7 +332,9 @@ class Replay {
     }
   }
 
-  void add_odometry(const Pose2D& increment) { pending_ = pose_compose(pending_, increment); }
+  void add_odometry(const Pose2D& increment) {
+    pending_ = navigation::pose_compose(pending_, increment);
+  }
 
   void process_scan(const mrpt::obs::CObservation2DRangeScan& scan) {
     const double t_s = scan.timestamp == mrpt::Clock::time_point()
@@ -368,7 +371,7 @@ class Replay {
 
   const Arguments& args_;
   const Inputs& in_;
-  Localizer& localizer_;
+  navigation::Localizer& localizer_;
   std::ostream& out_;
   const cv::Mat distance_m_;
   // Odometry arrives either as action collections (increments) or, in observation-only
@@ -379,7 +382,7 @@ class Replay {
 };
 
 // The summary on stderr; the exit code: 2 when no truth pose matched any scan, else 0.
-int print_summary(const Arguments& args, const Inputs& in, const Localizer& localizer,
+int print_summary(const Arguments& args, const Inputs& in, const navigation::Localizer& localizer,
                   const Tally& tally) {
   const std::size_t scans = tally.scans;
   if (in.scored.empty()) {
@@ -388,9 +391,9 @@ int print_summary(const Arguments& args, const Inputs& in, const Localizer& loca
                  "localize: %zu scans, converged for %zu (%.0f%%), final std %.3f m %.2f deg, "
                  "scans on the map's walls %.0f%%, %.2f ms per update with %zu particles\n",
                  scans, tally.converged_scans, 100.0 * tally.converged_scans / scans,
-                 position_std_m(final_estimate), rad_to_deg(yaw_std_rad(final_estimate)),
-                 100.0 * localizer.scan_fit(), 1000.0 * tally.update_s / scans,
-                 localizer.particle_count());
+                 navigation::position_std_m(final_estimate),
+                 rad_to_deg(navigation::yaw_std_rad(final_estimate)), 100.0 * localizer.scan_fit(),
+                 1000.0 * tally.update_s / scans, localizer.particle_count());
   } else {
     std::fprintf(stderr, "localize: %zu scans, %zu with no pose in %s\n", scans, tally.unscored,
                  args.score.c_str());
@@ -433,10 +436,10 @@ int run_localize_command(int argc, char** argv) {
   }
   std::ostream& out = args->out.empty() ? std::cout : file;
 
-  LocalizerOptions options;
+  navigation::LocalizerOptions options;
   options.particles = args->particles;
   options.lf_field = args->field;
-  Localizer localizer(*in.map, options, args->seed);
+  navigation::Localizer localizer(*in.map, options, args->seed);
   localizer.reset(args->init);
   Replay replay(*args, in, localizer, out);
   Progress progress(in.rawlog.size());

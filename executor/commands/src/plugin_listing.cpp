@@ -60,32 +60,33 @@ std::string joined(const std::vector<std::string>& words) {
 
 }  // namespace
 
-void print_plugin_listing(const PluginRegistry& registry, std::ostream& out) {
+void print_plugin_listing(const host::PluginRegistry& registry, std::ostream& out) {
   const auto kinds = registry.kinds();
   std::set<std::string> plugins;
-  for (const KindInfo* kind : kinds) plugins.insert(kind->library.string());
+  for (const host::KindInfo* kind : kinds) plugins.insert(kind->library.string());
   if (kinds.empty()) {
     out << "no plugin kinds found\n";
     return;
   }
   out << kinds.size() << (kinds.size() == 1 ? " kind" : " kinds") << " from " << plugins.size()
       << (plugins.size() == 1 ? " plugin" : " plugins") << "\n";
-  for (const KindInfo* kind : kinds) {
+  for (const host::KindInfo* kind : kinds) {
     out << "\n" << kind->name << " (" << to_string(kind->family) << ")\n";
     print_field(out, "plugin", kind->plugin_name + " " + kind->plugin_version);
     print_field(out, "library", kind->library.string());
-    if (kind->family == Family::driver) print_field(out, "interface", kind->interface);
-    if (kind->family == Family::service) print_field(out, "role", kind->interface);
+    if (kind->family == host::Family::driver) print_field(out, "interface", kind->interface);
+    if (kind->family == host::Family::service) print_field(out, "role", kind->interface);
     print_field(out, "description", kind->description);
     print_params(out, kind->params);
-    if (kind->family == Family::behaviour) {
+    if (kind->family == host::Family::behaviour) {
       print_field(
           out, "outcomes",
           joined(kind->outcomes) + " (and " + kOutcomeFailed + ", " + kOutcomeCancelled + ")");
     }
-    for (const KeyAccess access : {KeyAccess::read, KeyAccess::read_if_present, KeyAccess::write}) {
+    for (const host::KeyAccess access :
+         {host::KeyAccess::read, host::KeyAccess::read_if_present, host::KeyAccess::write}) {
       std::vector<std::string> keys;
-      for (const KeyUse& k : kind->keys) {
+      for (const host::KeyUse& k : kind->keys) {
         if (k.access == access) keys.push_back(k.name + " (" + k.type + ")");
       }
       if (!keys.empty()) print_field(out, to_string(access), joined(keys));
@@ -94,15 +95,15 @@ void print_plugin_listing(const PluginRegistry& registry, std::ostream& out) {
 }
 
 int run_plugins_command(const std::vector<std::filesystem::path>& cli_paths, std::ostream& out,
-                        std::ostream& err, const PluginLoadOptions& load_options) {
-  const auto dirs = PluginRegistry::search_path(cli_paths);
+                        std::ostream& err, const host::PluginLoadOptions& load_options) {
+  const auto dirs = host::PluginRegistry::search_path(cli_paths);
   out << "search path:\n";
   for (const auto& dir : dirs) {
     std::error_code ec;
     out << "  " << dir.string() << (std::filesystem::is_directory(dir, ec) ? "" : " (missing)")
         << "\n";
   }
-  PluginRegistry registry(load_options);
+  host::PluginRegistry registry(load_options);
   const auto failures = registry.load_directories(dirs);
   out << "\n";
   print_plugin_listing(registry, out);

@@ -7,16 +7,16 @@ namespace projtour {
 
 BehaviourCatalog::~BehaviourCatalog() = default;
 
-bool kind_declares_outcome(const KindInfo& kind, const std::string& outcome) {
+bool kind_declares_outcome(const host::KindInfo& kind, const std::string& outcome) {
   return std::find(kind.outcomes.begin(), kind.outcomes.end(), outcome) != kind.outcomes.end();
 }
 
 void InProcessCatalog::add(const std::string& kind, std::vector<std::string> outcomes,
                            std::vector<ParamSpec> params, Factory factory, Validator validator,
-                           std::vector<KeyUse> keys) {
+                           std::vector<host::KeyUse> keys) {
   Entry entry;
   entry.info.name = kind;
-  entry.info.family = Family::behaviour;
+  entry.info.family = host::Family::behaviour;
   entry.info.outcomes = std::move(outcomes);
   entry.info.params = std::move(params);
   entry.info.keys = std::move(keys);
@@ -26,7 +26,7 @@ void InProcessCatalog::add(const std::string& kind, std::vector<std::string> out
   kinds_[kind] = std::move(entry);
 }
 
-const KindInfo* InProcessCatalog::find(const std::string& kind) const {
+const host::KindInfo* InProcessCatalog::find(const std::string& kind) const {
   const auto it = kinds_.find(kind);
   return it == kinds_.end() ? nullptr : &it->second.info;
 }

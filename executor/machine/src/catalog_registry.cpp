@@ -3,13 +3,13 @@
 
 namespace projtour {
 
-const KindInfo* RegistryCatalog::find(const std::string& kind) const {
+const host::KindInfo* RegistryCatalog::find(const std::string& kind) const {
   return registry_.find(kind);
 }
 
 std::vector<std::string> RegistryCatalog::kind_names() const {
   std::vector<std::string> names;
-  for (const KindInfo* k : registry_.kinds()) names.push_back(k->name);
+  for (const host::KindInfo* k : registry_.kinds()) names.push_back(k->name);
   return names;
 }
 

@@ -51,7 +51,8 @@ int exit_code(TourOutcome outcome) {
   return 1;
 }
 
-double time_of_day_at_zero_s(const MissionSchedule& schedule, bool dry_run, double mission_now_s) {
+double time_of_day_at_zero_s(const host::MissionSchedule& schedule, bool dry_run,
+                             double mission_now_s) {
   if (dry_run) return schedule.start_s;
   const std::time_t now = std::time(nullptr);
   std::tm local{};

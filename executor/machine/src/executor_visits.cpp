@@ -65,12 +65,13 @@ std::size_t Executor::nearest_target(const PoseEstimate2D& estimate,
                                      const std::vector<std::size_t>& remaining) {
   const Eigen::Vector2d here(estimate.mean.x_m, estimate.mean.y_m);
   if (run_.map && !planner_) {
-    planner_ = std::make_unique<PathPlanner>(*run_.map, run_.mission->robot.base.radius_m);
+    planner_ =
+        std::make_unique<navigation::PathPlanner>(*run_.map, run_.mission->robot.base.radius_m);
   }
   std::size_t chosen = remaining.front();
   double best_m = std::numeric_limits<double>::infinity();
   for (std::size_t i : remaining) {
-    const Pose2D goal = standoff_pose(run_.mission->targets[i]);
+    const Pose2D goal = navigation::standoff_pose(run_.mission->targets[i]);
     const Eigen::Vector2d to(goal.x_m, goal.y_m);
     const double length_m =
         planner_
@@ -97,7 +98,7 @@ void Executor::start_target_visit(const StateSpec& for_each, std::size_t index) 
   visit_target_.reset();
   if (index < options_.target_times.size() && options_.target_times[index].content.size() > 1) {
     // Counted from the records, so a resumed run goes on with the item it would have shown.
-    const TargetTimes& times = options_.target_times[index];
+    const host::TargetTimes& times = options_.target_times[index];
     const auto shown = std::count_if(records_.begin(), records_.end(), [&](const TargetRecord& r) {
       return r.index == index && r.outcome != "outside_hours";
     });
@@ -147,7 +148,7 @@ std::string Executor::outside_hours(std::size_t index) const {
   if (hours.empty()) return "";
   const double now = std::fmod(time_of_day_s(clock_.now_s()), 86400.0);
   std::string windows;
-  for (const TimeWindow& w : hours) {
+  for (const host::TimeWindow& w : hours) {
     if (now >= w.begin_s && now < w.end_s) return "";
     windows += (windows.empty() ? "" : ", ") + clock_text(w.begin_s, false) + "-" +
                clock_text(w.end_s, false);
@@ -189,7 +190,7 @@ void Executor::emit_round(const StateSpec& for_each, const std::string& outcome,
 // The robot stays where the round left it for pause_s, or until a target's window opens when
 // the round found every one closed (a pause of 0 would otherwise spin round after round).
 void Executor::end_round(const StateSpec& for_each) {
-  const MissionSchedule& schedule = options_.schedule;
+  const host::MissionSchedule& schedule = options_.schedule;
   if (!schedule.written) {
     follow_composite_done(for_each);
     return;
@@ -212,8 +213,8 @@ void Executor::end_round(const StateSpec& for_each) {
     // The earliest window opening after now, today.
     const double day_s = std::fmod(time_of_day_s(now_s), 86400.0);
     std::optional<double> opens_s;
-    for (const TargetTimes& t : options_.target_times) {
-      for (const TimeWindow& w : t.hours) {
+    for (const host::TargetTimes& t : options_.target_times) {
+      for (const host::TimeWindow& w : t.hours) {
         if (w.begin_s > day_s && (!opens_s || w.begin_s < *opens_s)) opens_s = w.begin_s;
       }
     }

@@ -68,10 +68,10 @@ constexpr int kMaxRetries = 100;
 constexpr std::size_t kMaxStates = 1000;
 constexpr int kMaxNesting = 16;
 
-SourceMark key_mark(const YAML::Node& key, const YamlField& parent) {
+host::SourceMark key_mark(const YAML::Node& key, const host::YamlField& parent) {
   const YAML::Mark m = key.Mark();
   if (m.is_null() || m.line < 0) return parent.mark();
-  return SourceMark{parent.file(), m.line + 1, m.column + 1};
+  return host::SourceMark{parent.file(), m.line + 1, m.column + 1};
 }
 
 std::string join(const std::vector<std::string>& words) {
@@ -84,7 +84,7 @@ std::string join(const std::vector<std::string>& words) {
 // of the machine (params included) is checked here. A node reached twice through an alias is
 // walked once, by its mark, so nested aliases cannot make the walk exponential.
 void check_unique_keys_deep(const YAML::Node& node, const std::string& path,
-                            const std::string& file, Diagnostics& diag,
+                            const std::string& file, host::Diagnostics& diag,
                             std::set<std::pair<int, int>>& walked) {
   if (!node.IsMap() && !node.IsSequence()) return;
   const YAML::Mark m = node.Mark();
@@ -104,7 +104,7 @@ void check_unique_keys_deep(const YAML::Node& node, const std::string& path,
     const auto [it, inserted] = first_line.emplace(key, k.line + 1);
     if (!inserted) {
       diag.error(
-          SourceMark{file, k.line + 1, k.column + 1}, child,
+          host::SourceMark{file, k.line + 1, k.column + 1}, child,
           "duplicate key \"" + key + "\" (first at line " + std::to_string(it->second) + ")");
     }
     check_unique_keys_deep(kv.second, child, file, diag, walked);
@@ -121,7 +121,7 @@ void check_unique_keys_deep(const YAML::Node& node, const std::string& path,
 // succeeding must lead somewhere too).
 class TerminationCheck {
  public:
-  TerminationCheck(const StateSpec& root, Diagnostics& diag) : diag_(diag) {
+  TerminationCheck(const StateSpec& root, host::Diagnostics& diag) : diag_(diag) {
     add_nodes(root);
     for (std::size_t n = 0; n < nodes_.size(); ++n) add_edges(n);
   }
@@ -317,22 +317,22 @@ class TerminationCheck {
     return node.completion ? out + " (done)" : out;
   }
 
-  Diagnostics& diag_;
+  host::Diagnostics& diag_;
   std::vector<Node> nodes_;
   std::map<const StateSpec*, int> enter_, complete_;
 };
 
 class MachineReader {
  public:
-  MachineReader(const BehaviourCatalog& catalog, Diagnostics& diag)
+  MachineReader(const BehaviourCatalog& catalog, host::Diagnostics& diag)
       : catalog_(catalog), diag_(diag) {
     for (const auto& name : catalog_.kind_names()) {
-      const KindInfo* k = catalog_.find(name);
-      if (k != nullptr && k->family == Family::behaviour) behaviour_kinds_.push_back(name);
+      const host::KindInfo* k = catalog_.find(name);
+      if (k != nullptr && k->family == host::Family::behaviour) behaviour_kinds_.push_back(name);
     }
   }
 
-  std::unique_ptr<StateSpec> read_root(const YamlField& field) {
+  std::unique_ptr<StateSpec> read_root(const host::YamlField& field) {
     if (!field.expect_map()) return nullptr;
     field.check_keys({"name", "initial", "states"});
     auto root = std::make_unique<StateSpec>();
@@ -351,14 +351,14 @@ class MachineReader {
   }
 
  private:
-  void read_composite_body(const YamlField& field, StateSpec& state) {
+  void read_composite_body(const host::YamlField& field, StateSpec& state) {
     if (auto initial = field["initial"].as_string()) state.initial = *initial;
-    const YamlField states = field["states"];
+    const host::YamlField states = field["states"];
     if (!states.expect_map()) return;
     for (const auto& kv : states.node()) {
       const std::string name = kv.first.Scalar();
-      const YamlField child_field = states[name];
-      const SourceMark name_mark = key_mark(kv.first, states);
+      const host::YamlField child_field = states[name];
+      const host::SourceMark name_mark = key_mark(kv.first, states);
       if (++state_count_ > kMaxStates) {
         if (state_count_ == kMaxStates + 1) {
           diag_.error(name_mark, child_field.path(),
@@ -381,7 +381,7 @@ class MachineReader {
     }
   }
 
-  bool read_state(const YamlField& field, StateSpec& state) {
+  bool read_state(const host::YamlField& field, StateSpec& state) {
     if (!field.expect_map()) return false;
     const bool is_final = field["final"].defined() && field.get_bool("final", false);
     const bool has_behaviour = field["behaviour"].defined();
@@ -436,35 +436,35 @@ class MachineReader {
     return true;
   }
 
-  void read_leaf(const YamlField& field, StateSpec& state) {
+  void read_leaf(const host::YamlField& field, StateSpec& state) {
     if (auto kind = field["behaviour"].as_string()) state.behaviour = *kind;
-    const YamlField timeout = field["timeout_s"];
+    const host::YamlField timeout = field["timeout_s"];
     if (auto t = timeout.as_double(false)) {
       if (*t < 0) timeout.error("expected a duration >= 0 (0 = no timeout)");
       state.timeout_s = std::max(0.0, *t);
     }
-    const YamlField retries = field["retries"];
+    const host::YamlField retries = field["retries"];
     if (auto r = retries.as_int(false)) {
       if (*r < 0 || *r > kMaxRetries) {
         retries.error("expected a count from 0 to " + std::to_string(kMaxRetries));
       }
       state.retries = static_cast<int>(std::clamp<long long>(*r, 0, kMaxRetries));
     }
-    const KindInfo* kind = state.behaviour.empty() ? nullptr : catalog_.find(state.behaviour);
-    if (!state.behaviour.empty() && (kind == nullptr || kind->family != Family::behaviour)) {
+    const host::KindInfo* kind = state.behaviour.empty() ? nullptr : catalog_.find(state.behaviour);
+    if (!state.behaviour.empty() && (kind == nullptr || kind->family != host::Family::behaviour)) {
       std::string message = "unknown behaviour kind \"" + state.behaviour + "\"";
       if (kind != nullptr) {
         message = "kind \"" + state.behaviour + "\" is a " + to_string(kind->family) +
                   ", not a behaviour";
       } else {
-        const std::string suggestion = closest_match(state.behaviour, behaviour_kinds_);
+        const std::string suggestion = host::closest_match(state.behaviour, behaviour_kinds_);
         if (!suggestion.empty()) message += "; did you mean \"" + suggestion + "\"?";
       }
       field["behaviour"].error(message);
       return;
     }
     if (kind == nullptr) return;
-    const YamlField projected_on = field["projected_on"];
+    const host::YamlField projected_on = field["projected_on"];
     if (auto outcome = projected_on.as_string(false)) {
       if (!kind->declares_outcome(*outcome)) {
         projected_on.error("behaviour \"" + state.behaviour + "\" does not declare outcome \"" +
@@ -473,16 +473,16 @@ class MachineReader {
         state.projected_on = *outcome;
       }
     }
-    const YamlField params = field["params"];
+    const host::YamlField params = field["params"];
     const std::size_t errors_before = diag_.error_count();
-    state.params = read_params(kind->params, params);
+    state.params = host::read_params(kind->params, params);
     if (diag_.error_count() == errors_before) {
       const std::string why = catalog_.validate_params(state.behaviour, state.params);
       if (!why.empty()) params.error(why);
     }
   }
 
-  void read_transitions(const YamlField& on, StateSpec& state) {
+  void read_transitions(const host::YamlField& on, StateSpec& state) {
     if (!on.defined()) return;
     if (state.type == StateType::final_state) {
       on.error("a final state has no transitions");
@@ -492,7 +492,7 @@ class MachineReader {
     for (const auto& kv : on.node()) {
       TransitionSpec t;
       t.outcome = kv.first.Scalar();
-      const YamlField value = on[t.outcome];
+      const host::YamlField value = on[t.outcome];
       t.mark = key_mark(kv.first, on);
       t.field_path = value.path();
       if (value.is_sequence()) {
@@ -509,20 +509,20 @@ class MachineReader {
   }
 
   // Whole-composite checks, once every child is read (targets may be declared later).
-  void check_composite(const YamlField& field, const StateSpec& composite) {
-    const YamlField states = field["states"];
+  void check_composite(const host::YamlField& field, const StateSpec& composite) {
+    const host::YamlField states = field["states"];
     std::vector<std::string> names;
     for (const auto& c : composite.children) names.push_back(c->name);
     if (!composite.initial.empty() && composite.child(composite.initial) == nullptr) {
       std::string message = "initial state \"" + composite.initial + "\" is not among the states";
-      const std::string suggestion = closest_match(composite.initial, names);
+      const std::string suggestion = host::closest_match(composite.initial, names);
       if (!suggestion.empty()) message += "; did you mean \"" + suggestion + "\"?";
       field["initial"].error(message);
     }
     std::vector<std::string> candidates = names;
     for (const char* r : {kSkipTarget, kDeferTarget, kFinish, kAbort}) candidates.push_back(r);
     for (const auto& c : composite.children) {
-      const YamlField child_field = states[c->name];
+      const host::YamlField child_field = states[c->name];
       check_transitions(child_field, *c, candidates);
       if (c->is_leaf()) check_leaf_outcomes(child_field, *c);
       if (c->is_composite()) {
@@ -542,20 +542,20 @@ class MachineReader {
     check_reachable(composite);
   }
 
-  void check_transitions(const YamlField& field, const StateSpec& state,
+  void check_transitions(const host::YamlField& field, const StateSpec& state,
                          const std::vector<std::string>& candidates) {
-    const YamlField on = field["on"];
+    const host::YamlField on = field["on"];
     for (const auto& t : state.on) {
-      const YamlField value = on[t.outcome];
+      const host::YamlField value = on[t.outcome];
       for (std::size_t i = 0; i < t.targets.size(); ++i) {
         const std::string& target = t.targets[i];
-        const YamlField where = value.is_sequence() ? value[i] : value;
+        const host::YamlField where = value.is_sequence() ? value[i] : value;
         if ((target == kSkipTarget || target == kDeferTarget) &&
             state.parent->enclosing_for_each() == nullptr) {
           where.error(target + " outside a for_each: target state");
         } else if (!is_reserved_target(target) && state.parent->child(target) == nullptr) {
           std::string message = "transition to unknown state \"" + target + "\"";
-          const std::string suggestion = closest_match(target, candidates);
+          const std::string suggestion = host::closest_match(target, candidates);
           if (!suggestion.empty()) message += "; did you mean \"" + suggestion + "\"?";
           where.error(message);
         }
@@ -563,9 +563,9 @@ class MachineReader {
     }
   }
 
-  void check_leaf_outcomes(const YamlField& field, const StateSpec& state) {
-    const KindInfo* kind = catalog_.find(state.behaviour);
-    if (kind == nullptr || kind->family != Family::behaviour) return;
+  void check_leaf_outcomes(const host::YamlField& field, const StateSpec& state) {
+    const host::KindInfo* kind = catalog_.find(state.behaviour);
+    if (kind == nullptr || kind->family != host::Family::behaviour) return;
     std::vector<std::string> handled_required = kind->outcomes;
     handled_required.push_back(kOutcomeFailed);
     if (state.timeout_s > 0 && !kind_declares_outcome(*kind, kOutcomeTimeout)) {
@@ -585,8 +585,8 @@ class MachineReader {
     }
     for (const auto& outcome : handled_required) {
       if (state.transition(outcome) == nullptr) {
-        const YamlField on = field["on"];
-        const YamlField where = on.defined() ? on : field;
+        const host::YamlField on = field["on"];
+        const host::YamlField where = on.defined() ? on : field;
         where.error("outcome \"" + outcome + "\" of behaviour \"" + state.behaviour +
                     "\" has no transition");
       }
@@ -618,7 +618,7 @@ class MachineReader {
   }
 
   const BehaviourCatalog& catalog_;
-  Diagnostics& diag_;
+  host::Diagnostics& diag_;
   std::vector<std::string> behaviour_kinds_;
   std::size_t state_count_ = 0;
 };
@@ -629,8 +629,8 @@ bool visits_targets(const StateSpec& state) {
                      [](const auto& c) { return visits_targets(*c); });
 }
 
-std::optional<Machine> load_checked(const YamlField& field, const BehaviourCatalog& catalog,
-                                    Diagnostics& diag, bool must_visit_targets) {
+std::optional<Machine> load_checked(const host::YamlField& field, const BehaviourCatalog& catalog,
+                                    host::Diagnostics& diag, bool must_visit_targets) {
   const std::size_t errors_before = diag.error_count();
   std::set<std::pair<int, int>> walked;
   check_unique_keys_deep(field.node(), field.path(), field.file(), diag, walked);
@@ -653,26 +653,27 @@ std::optional<Machine> load_checked(const YamlField& field, const BehaviourCatal
 
 }  // namespace
 
-std::optional<Machine> load_machine(const YamlField& field, const BehaviourCatalog& catalog,
-                                    Diagnostics& diag) {
+std::optional<Machine> load_machine(const host::YamlField& field, const BehaviourCatalog& catalog,
+                                    host::Diagnostics& diag) {
   return load_checked(field, catalog, diag, false);
 }
 
-std::optional<Machine> load_machine(const MachineSource& source, const BehaviourCatalog& catalog,
-                                    Diagnostics& diag) {
+std::optional<Machine> load_machine(const host::MachineSource& source,
+                                    const BehaviourCatalog& catalog, host::Diagnostics& diag) {
   if (source.is_default) {
-    const auto node = load_yaml_string(default_machine_yaml(), kDefaultMachineFile, diag);
+    const auto node = host::load_yaml_string(default_machine_yaml(), kDefaultMachineFile, diag);
     if (!node) return std::nullopt;
-    return load_checked(YamlField(*node, kDefaultMachineFile, diag), catalog, diag, true);
+    return load_checked(host::YamlField(*node, kDefaultMachineFile, diag), catalog, diag, true);
   }
   if (source.path.empty()) {
-    return load_checked(YamlField(source.node, source.file, diag), catalog, diag, true);
+    return load_checked(host::YamlField(source.node, source.file, diag), catalog, diag, true);
   }
   // Give the fields their path inside the mission ("machine.states...") by reading the node
   // as a child of a wrapper; the node keeps its own marks.
   YAML::Node wrapper;
   wrapper[source.path] = source.node;
-  return load_checked(YamlField(wrapper, source.file, diag)[source.path], catalog, diag, true);
+  return load_checked(host::YamlField(wrapper, source.file, diag)[source.path], catalog, diag,
+                      true);
 }
 
 }  // namespace projtour

@@ -32,7 +32,7 @@ class DataFlow {
   std::map<const StateSpec*, KeySet> solve() {
     KeySet universe;
     for (const StateSpec* leaf : machine_.leaves()) {
-      for (const KeyUse& k : keys_of(*leaf)) universe.insert(k.name);
+      for (const host::KeyUse& k : keys_of(*leaf)) universe.insert(k.name);
     }
     std::map<const StateSpec*, KeySet> in;
     for (const StateSpec* leaf : machine_.leaves()) in[leaf] = universe;
@@ -72,9 +72,9 @@ class DataFlow {
     return in;
   }
 
-  std::vector<KeyUse> keys_of(const StateSpec& leaf) const {
-    const KindInfo* kind = catalog_.find(leaf.behaviour);
-    return kind != nullptr ? kind->keys : std::vector<KeyUse>{};
+  std::vector<host::KeyUse> keys_of(const StateSpec& leaf) const {
+    const host::KindInfo* kind = catalog_.find(leaf.behaviour);
+    return kind != nullptr ? kind->keys : std::vector<host::KeyUse>{};
   }
 
  private:
@@ -82,13 +82,13 @@ class DataFlow {
   // outcome when it declares no `succeeded`), never on failed or timeout.
   KeySet out_of(const StateSpec& leaf, const std::string& outcome, const KeySet& in) const {
     KeySet out = in;
-    const KindInfo* kind = catalog_.find(leaf.behaviour);
+    const host::KindInfo* kind = catalog_.find(leaf.behaviour);
     if (kind == nullptr) return out;
     const bool has_succeeded = kind->declares_outcome("succeeded");
     const bool counts = has_succeeded ? outcome == "succeeded" : kind->declares_outcome(outcome);
     if (!counts) return out;
-    for (const KeyUse& k : kind->keys) {
-      if (k.access == KeyAccess::write) out.insert(k.name);
+    for (const host::KeyUse& k : kind->keys) {
+      if (k.access == host::KeyAccess::write) out.insert(k.name);
     }
     return out;
   }
@@ -176,11 +176,11 @@ std::string in_quotes(const std::string& s) {
 }  // namespace
 
 void check_machine_data(const Machine& machine, const BehaviourCatalog& catalog,
-                        const std::vector<KeyUse>& service_writes, Diagnostics& diag) {
+                        const std::vector<host::KeyUse>& service_writes, host::Diagnostics& diag) {
   DataFlow flow(machine, catalog);
   // One type per key name, over the machine's kinds and the services.
   std::map<std::string, std::pair<std::string, std::string>> type_of;  // name -> (type, who)
-  const auto agree = [&](const KeyUse& k, const std::string& who, const StateSpec* at) {
+  const auto agree = [&](const host::KeyUse& k, const std::string& who, const StateSpec* at) {
     const auto [it, inserted] = type_of.emplace(k.name, std::make_pair(k.type, who));
     if (inserted || it->second.first == k.type) return;
     const std::string message = "key " + in_quotes(k.name) + " is a " + in_quotes(k.type) + " to " +
@@ -189,24 +189,25 @@ void check_machine_data(const Machine& machine, const BehaviourCatalog& catalog,
     if (at != nullptr) {
       diag.error(at->mark, at->field_path + ".behaviour", message);
     } else {
-      diag.error(SourceMark{}, "", message);
+      diag.error(host::SourceMark{}, "", message);
     }
   };
   KeySet from_services;
-  for (const KeyUse& k : service_writes) {
+  for (const host::KeyUse& k : service_writes) {
     agree(k, "a service", nullptr);
     from_services.insert(k.name);
   }
   std::map<std::string, std::vector<std::string>> writers;  // key -> leaf paths
   for (const StateSpec* leaf : machine.leaves()) {
-    for (const KeyUse& k : flow.keys_of(*leaf)) {
+    for (const host::KeyUse& k : flow.keys_of(*leaf)) {
       agree(k, "behaviour " + in_quotes(leaf->behaviour) + " (" + leaf->path + ")", leaf);
-      if (k.access == KeyAccess::write) writers[k.name].push_back(leaf->path);
+      if (k.access == host::KeyAccess::write) writers[k.name].push_back(leaf->path);
     }
   }
   for (const auto& [leaf, in] : flow.solve()) {
-    for (const KeyUse& k : flow.keys_of(*leaf)) {
-      if (k.access != KeyAccess::read || in.count(k.name) || from_services.count(k.name)) continue;
+    for (const host::KeyUse& k : flow.keys_of(*leaf)) {
+      if (k.access != host::KeyAccess::read || in.count(k.name) || from_services.count(k.name))
+        continue;
       std::string message = "behaviour " + in_quotes(leaf->behaviour) + " reads " +
                             in_quotes(k.name) + " (" + k.type + "), which ";
       const auto w = writers.find(k.name);

@@ -42,20 +42,21 @@ class DotWriter {
   // Dotted, from each state writing a key to each state reading it; they do not rank the graph.
   void write_data_edges(const Machine& machine, const BehaviourCatalog& catalog) {
     const auto keys_of = [&](const StateSpec& leaf) {
-      const KindInfo* kind = catalog.find(leaf.behaviour);
-      return kind != nullptr ? kind->keys : std::vector<KeyUse>{};
+      const host::KindInfo* kind = catalog.find(leaf.behaviour);
+      return kind != nullptr ? kind->keys : std::vector<host::KeyUse>{};
     };
     for (const StateSpec* reader : machine.leaves()) {
-      for (const KeyUse& read : keys_of(*reader)) {
-        if (read.access == KeyAccess::write) continue;
+      for (const host::KeyUse& read : keys_of(*reader)) {
+        if (read.access == host::KeyAccess::write) continue;
         for (const StateSpec* writer : machine.leaves()) {
           if (writer == reader) continue;
-          for (const KeyUse& w : keys_of(*writer)) {
-            if (w.access != KeyAccess::write || w.name != read.name) continue;
+          for (const host::KeyUse& w : keys_of(*writer)) {
+            if (w.access != host::KeyAccess::write || w.name != read.name) continue;
             out_ << "  " << quoted(writer->path) << " -> " << quoted(reader->path)
                  << " [label=" << quoted(read.name)
                  << ", style=dotted, color=steelblue, fontcolor=steelblue, constraint=false"
-                 << (read.access == KeyAccess::read_if_present ? ", arrowhead=odot" : "") << "];\n";
+                 << (read.access == host::KeyAccess::read_if_present ? ", arrowhead=odot" : "")
+                 << "];\n";
           }
         }
       }

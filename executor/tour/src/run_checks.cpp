@@ -37,7 +37,7 @@ std::string point_text(const Vector3d& p) {
 // Diagnostics about one target, each at one of its fields.
 class TargetProblems {
  public:
-  TargetProblems(const LoadedMission& mission, std::size_t index, Diagnostics& diag)
+  TargetProblems(const host::LoadedMission& mission, std::size_t index, host::Diagnostics& diag)
       : mission_(mission), prefix_("targets[" + std::to_string(index) + "]"), diag_(diag) {}
 
   // At `field` when it was written, else at `fallback` (a default value has no line of its own).
@@ -49,13 +49,13 @@ class TargetProblems {
   }
 
  private:
-  const LoadedMission& mission_;
+  const host::LoadedMission& mission_;
   std::string prefix_;
-  Diagnostics& diag_;
+  host::Diagnostics& diag_;
 };
 
 // The mesh, or the first reason a run could not use it.
-std::string mesh_problem(const TriangleMesh& mesh) {
+std::string mesh_problem(const perception::TriangleMesh& mesh) {
   if (mesh.vertices.size() > kMaxModelVertices) {
     return "holds " + std::to_string(mesh.vertices.size()) + " vertices; expected at most " +
            std::to_string(kMaxModelVertices);
@@ -111,7 +111,7 @@ Vector3d closest_on_triangle(const Vector3d& p, const Vector3d& a, const Vector3
   return a + ab * (vb / denom) + ac * (vc / denom);
 }
 
-double distance_to_surface(const TriangleMesh& mesh, const Vector3d& p) {
+double distance_to_surface(const perception::TriangleMesh& mesh, const Vector3d& p) {
   double best = std::numeric_limits<double>::infinity();
   for (const Eigen::Vector3i& t : mesh.triangles) {
     const Vector3d q =
@@ -161,7 +161,7 @@ void check_model_points_shape(const TargetSpec& target, const TargetProblems& pr
   }
 }
 
-void check_model_points_on_surface(const TargetSpec& target, const TriangleMesh& mesh,
+void check_model_points_on_surface(const TargetSpec& target, const perception::TriangleMesh& mesh,
                                    const TargetProblems& problems) {
   for (std::size_t i = 0; i < 4; ++i) {
     const double d_m = distance_to_surface(mesh, target.model_points[i]);
@@ -176,7 +176,8 @@ void check_model_points_on_surface(const TargetSpec& target, const TriangleMesh&
 }
 
 // How far the model reaches toward its stand-off pose, along the floor, from its origin.
-double front_reach_m(const TargetSpec& target, const TriangleMesh* mesh, const Pose2D& standoff) {
+double front_reach_m(const TargetSpec& target, const perception::TriangleMesh* mesh,
+                     const Pose2D& standoff) {
   if (mesh == nullptr) return 0.0;
   const Vector2d toward(-std::cos(standoff.yaw_rad), -std::sin(standoff.yaw_rad));
   double reach_m = 0.0;
@@ -187,9 +188,9 @@ double front_reach_m(const TargetSpec& target, const TriangleMesh* mesh, const P
   return reach_m;
 }
 
-void check_standoff_and_aim(const LoadedMission& mission, const TargetSpec& target,
-                            const TriangleMesh* mesh, const TargetProblems& problems) {
-  const Pose2D standoff = standoff_pose(target);
+void check_standoff_and_aim(const host::LoadedMission& mission, const TargetSpec& target,
+                            const perception::TriangleMesh* mesh, const TargetProblems& problems) {
+  const Pose2D standoff = navigation::standoff_pose(target);
   const double radius_m = mission.robot.base.radius_m;
   const double least_m = radius_m + front_reach_m(target, mesh, standoff) + kStandoffMarginM;
   if (target.standoff_m < least_m) {
@@ -207,7 +208,7 @@ void check_standoff_and_aim(const LoadedMission& mission, const TargetSpec& targ
   for (const Vector3d& p : target.model_points) p_model += p / 4.0;
   const Vector3d p_base = isometry_from_pose2d(standoff).inverse() * (target.T_map_model * p_model);
   std::string why;
-  if (!HeadKinematics(mission.robot).aim_projector_at(p_base, &why)) {
+  if (!head::HeadKinematics(mission.robot).aim_projector_at(p_base, &why)) {
     problems.error("standoff_m",
                    "from the stand-off pose the aim point (the Model Points' centre, " +
                        point_text(p_base) + " m in the base frame) is out of the head's reach: " +
@@ -242,16 +243,16 @@ void check_content(const std::filesystem::path& content, const std::string& fiel
 
 }  // namespace
 
-void check_run_assets(const LoadedMission& mission, Diagnostics& diag) {
+void check_run_assets(const host::LoadedMission& mission, host::Diagnostics& diag) {
   // Targets often share a model: each file is read once.
-  std::map<std::filesystem::path, std::shared_ptr<const TriangleMesh>> meshes;
+  std::map<std::filesystem::path, std::shared_ptr<const perception::TriangleMesh>> meshes;
   for (std::size_t i = 0; i < mission.targets.size(); ++i) {
     const TargetSpec& target = mission.targets[i];
     const TargetProblems problems(mission, i, diag);
     auto [it, fresh] = meshes.emplace(target.model, nullptr);
     if (fresh) {
       try {
-        auto mesh = std::make_shared<TriangleMesh>(load_mesh(target.model));
+        auto mesh = std::make_shared<perception::TriangleMesh>(perception::load_mesh(target.model));
         const std::string problem = mesh_problem(*mesh);
         if (problem.empty()) {
           it->second = std::move(mesh);
@@ -262,7 +263,7 @@ void check_run_assets(const LoadedMission& mission, Diagnostics& diag) {
         problems.error("model", std::string(e.what()) + "; expected a triangle mesh (PLY or OFF)");
       }
     }
-    const TriangleMesh* mesh = it->second.get();
+    const perception::TriangleMesh* mesh = it->second.get();
     check_model_points_shape(target, problems);
     if (mesh != nullptr) check_model_points_on_surface(target, *mesh, problems);
     check_standoff_and_aim(mission, target, mesh, problems);

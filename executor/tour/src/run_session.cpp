@@ -42,7 +42,7 @@ std::optional<int> RunSession::open() {
   // honours at once (checkpoint written, resumable), one while the report is written is noted
   // and the finished tour keeps its outcome.
   signals_ = std::make_unique<SignalScope>();
-  Diagnostics diag;
+  host::Diagnostics diag;
   prepared_ = prepare_run(options_, PrepareDepth::everything, diag);
   print_diagnostics(diag, err_);
   if (!prepared_) {
@@ -130,7 +130,7 @@ void RunSession::fill_context() {
 // Everything is made before anything moves: a create that throws ends the run here.
 std::optional<int> RunSession::create_instances(std::vector<ServiceInstance>& services,
                                                 BehaviourInstances& behaviours) {
-  const PluginRegistry& registry = *prepared_->registry;
+  const host::PluginRegistry& registry = *prepared_->registry;
   try {
     for (const auto& [interface, choice] : prepared_->drivers) {
       std::shared_ptr<Driver> driver = registry.create_driver(choice.kind, choice.params, run_);
@@ -157,7 +157,7 @@ int RunSession::nothing_moved(const std::string& what) {
 
 void RunSession::make_executor(std::vector<ServiceInstance> services,
                                BehaviourInstances behaviours) {
-  const LoadedMission& mission = prepared_->mission;
+  const host::LoadedMission& mission = prepared_->mission;
   executor_options_.tick_s = 1.0 / options_.tick_hz;
   executor_options_.cancel_grace_s = options_.cancel_grace_s;
   executor_options_.schedule = mission.schedule;
@@ -229,7 +229,7 @@ std::optional<int> RunSession::add_observers(std::size_t already_done) {
 
 void RunSession::write_checkpoint_of(double mission_s, const std::vector<TargetRecord>& done,
                                      std::optional<std::size_t> interrupted_target, int round) {
-  const LoadedMission& mission = prepared_->mission;
+  const host::LoadedMission& mission = prepared_->mission;
   Checkpoint c;
   c.mission = mission.name;
   c.seed = seed_;

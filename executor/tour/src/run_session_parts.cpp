@@ -77,7 +77,7 @@ void paced_sleep_until(std::chrono::steady_clock::time_point until) {
   }
 }
 
-void print_diagnostics(const Diagnostics& diag, std::ostream& err) {
+void print_diagnostics(const host::Diagnostics& diag, std::ostream& err) {
   for (const auto& d : diag.items()) err << d.format() << "\n";
 }
 

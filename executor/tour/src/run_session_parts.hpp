@@ -44,7 +44,7 @@ bool take_resume_signal();
 // Sleeps until `until`, in slices, returning early as soon as any of the signals has come.
 void paced_sleep_until(std::chrono::steady_clock::time_point until);
 
-void print_diagnostics(const Diagnostics& diag, std::ostream& err);
+void print_diagnostics(const host::Diagnostics& diag, std::ostream& err);
 
 // Why --speed cannot be used in this run, "" when it can.
 std::string speed_problem(const RunOptions& options);

@@ -10,7 +10,7 @@
 namespace projtour {
 
 int validate_command(const RunOptions& options, std::ostream& out, std::ostream& err) {
-  Diagnostics diag;
+  host::Diagnostics diag;
   auto prepared = prepare_run(options, PrepareDepth::everything, diag);
   print_diagnostics(diag, err);
   if (!prepared) {
@@ -24,7 +24,7 @@ int validate_command(const RunOptions& options, std::ostream& out, std::ostream&
 }
 
 int graph_command(const RunOptions& options, std::ostream& out, std::ostream& err) {
-  Diagnostics diag;
+  host::Diagnostics diag;
   auto prepared = prepare_run(options, PrepareDepth::machine, diag);
   print_diagnostics(diag, err);
   if (!prepared) return 2;

@@ -34,8 +34,8 @@ inline constexpr const char* kConvergedMinFit = "converged_min_fit";
 inline constexpr const char* kWidenYawDeg = "widen_yaw_deg";
 }  // namespace param
 
-LocalizerOptions options_from(const Params& p) {
-  LocalizerOptions o;
+navigation::LocalizerOptions options_from(const Params& p) {
+  navigation::LocalizerOptions o;
   o.particles = static_cast<int>(p.integer(param::kParticles));
   o.init_spread_m = p.number(param::kInitSpreadM);
   o.init_spread_deg = p.number(param::kInitSpreadDeg);
@@ -43,8 +43,9 @@ LocalizerOptions options_from(const Params& p) {
   o.odom_rot_noise_frac = p.number(param::kOdomRotNoiseFrac);
   o.lf_sigma_m = p.number(param::kLfSigmaM);
   o.lf_decimation = static_cast<int>(p.integer(param::kLfDecimation));
-  o.lf_field = p.string(param::kLfField) == "occupied" ? LocalizerOptions::Field::occupied
-                                                       : LocalizerOptions::Field::boundary;
+  o.lf_field = p.string(param::kLfField) == "occupied"
+                   ? navigation::LocalizerOptions::Field::occupied
+                   : navigation::LocalizerOptions::Field::boundary;
   o.short_reading_m = p.number(param::kShortReadingM);
   o.inject_max_frac = p.number(param::kInjectMaxFrac);
   o.converged_std_m = p.number(param::kConvergedStdM);
@@ -62,7 +63,7 @@ class MrptLocalization : public Service {
         update_every_scans_(params.integer(param::kUpdateEveryScans)),
         widen_yaw_rad_(deg_to_rad(params.number(param::kWidenYawDeg))) {
     if (!run.map) throw std::runtime_error("mrpt_localization needs the mission's map");
-    localizer_ = std::make_unique<Localizer>(*run.map, options_from(params), run.seed);
+    localizer_ = std::make_unique<navigation::Localizer>(*run.map, options_from(params), run.seed);
   }
 
   void start(Context& ctx) override {
@@ -79,7 +80,9 @@ class MrptLocalization : public Service {
   void update(Context& ctx) override {
     Blackboard& board = ctx.blackboard();
     const Pose2D odometry = ctx.drivers().base->odometry().pose;
-    if (last_odometry_) pending_ = pose_compose(pending_, pose_delta(*last_odometry_, odometry));
+    if (last_odometry_)
+      pending_ =
+          navigation::pose_compose(pending_, navigation::pose_delta(*last_odometry_, odometry));
     last_odometry_ = odometry;
 
     if (const double* widen_m = board.find(keys::kLocalizationWiden)) {
@@ -106,7 +109,7 @@ class MrptLocalization : public Service {
  private:
   void publish(Context& ctx) {
     PoseEstimate2D estimate = localizer_->estimate();
-    estimate.mean = pose_compose(estimate.mean, pending_);
+    estimate.mean = navigation::pose_compose(estimate.mean, pending_);
     estimate.t_s = ctx.now_s();
     ctx.blackboard().set(keys::kLocalization, estimate);
     ctx.blackboard().set(keys::kLocalizationConverged, localizer_->converged());
@@ -117,7 +120,7 @@ class MrptLocalization : public Service {
   double update_min_angle_rad_;
   long long update_every_scans_;
   double widen_yaw_rad_;
-  std::unique_ptr<Localizer> localizer_;
+  std::unique_ptr<navigation::Localizer> localizer_;
   std::optional<Pose2D> last_odometry_;
   Pose2D pending_;
   long long scans_since_update_ = 0;

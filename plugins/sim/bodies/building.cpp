@@ -40,8 +40,8 @@ Eigen::Isometry3d on_floor(const Pose2D& pose, double z_m) {
 
 }  // namespace
 
-TriangleMesh prism_mesh(double radius_m, double height_m, int sides) {
-  TriangleMesh mesh;
+perception::TriangleMesh prism_mesh(double radius_m, double height_m, int sides) {
+  perception::TriangleMesh mesh;
   for (int k = 0; k < sides; ++k) {
     const double a = 2.0 * kPi * k / sides;
     const float x = static_cast<float>(radius_m * std::cos(a));
@@ -98,7 +98,7 @@ double Footprint::ray_hit_m(const Eigen::Vector2d& origin, const Eigen::Vector2d
   return t0 > 0.0 ? t0 : kInf;  // from inside: the laser sees nothing of it
 }
 
-Eigen::Vector2d map_point_of(const Eigen::Vector2d& building_m, const MapErrorSpec& error,
+Eigen::Vector2d map_point_of(const Eigen::Vector2d& building_m, const host::MapErrorSpec& error,
                              const Eigen::Vector2d& about_m) {
   const Eigen::Vector2d centre = error.rotation_about_m.value_or(about_m);
   const Eigen::Rotation2Dd R_inv(-deg_to_rad(error.rotation_deg));
@@ -107,7 +107,7 @@ Eigen::Vector2d map_point_of(const Eigen::Vector2d& building_m, const MapErrorSp
 }
 
 std::shared_ptr<mrpt::maps::COccupancyGridMap2D> building_walls(
-    const mrpt::maps::COccupancyGridMap2D& map, const MapErrorSpec& error,
+    const mrpt::maps::COccupancyGridMap2D& map, const host::MapErrorSpec& error,
     const Eigen::Vector2d& about_m) {
   auto out = std::make_shared<mrpt::maps::COccupancyGridMap2D>(map);
   const int nx = static_cast<int>(map.getSizeX()), ny = static_cast<int>(map.getSizeY());
@@ -148,12 +148,12 @@ std::shared_ptr<mrpt::maps::COccupancyGridMap2D> building_walls(
       }
     }
   }
-  for (const WallSegmentSpec& w : error.missing_walls) paint_segment(*out, w, 1.0f);
-  for (const WallSegmentSpec& w : error.extra_walls) paint_segment(*out, w, 0.0f);
+  for (const host::WallSegmentSpec& w : error.missing_walls) paint_segment(*out, w, 1.0f);
+  for (const host::WallSegmentSpec& w : error.extra_walls) paint_segment(*out, w, 0.0f);
   return out;
 }
 
-void paint_segment(mrpt::maps::COccupancyGridMap2D& grid, const WallSegmentSpec& wall,
+void paint_segment(mrpt::maps::COccupancyGridMap2D& grid, const host::WallSegmentSpec& wall,
                    float free_p) {
   const double res = grid.getResolution();
   const double half = 0.5 * wall.thickness_m;
@@ -171,7 +171,7 @@ void paint_segment(mrpt::maps::COccupancyGridMap2D& grid, const WallSegmentSpec&
   }
 }
 
-Footprint glass_footprint(const WallSegmentSpec& wall, const std::string& name) {
+Footprint glass_footprint(const host::WallSegmentSpec& wall, const std::string& name) {
   Footprint f;
   f.shape = Footprint::Shape::rect;
   f.centre_m = 0.5 * (wall.a_m + wall.b_m);
@@ -184,11 +184,11 @@ Footprint glass_footprint(const WallSegmentSpec& wall, const std::string& name) 
   return f;
 }
 
-Footprint object_footprint(const WorldObjectSpec& object, const std::string& name) {
+Footprint object_footprint(const host::WorldObjectSpec& object, const std::string& name) {
   Footprint f;
   f.centre_m = Eigen::Vector2d(object.pose.x_m, object.pose.y_m);
   f.yaw_rad = object.pose.yaw_rad;
-  if (object.shape == WorldObjectSpec::Shape::cylinder) {
+  if (object.shape == host::WorldObjectSpec::Shape::cylinder) {
     f.shape = Footprint::Shape::circle;
     f.half_m = Eigen::Vector2d::Constant(0.5 * object.size_x_m);
   } else {
@@ -201,8 +201,8 @@ Footprint object_footprint(const WorldObjectSpec& object, const std::string& nam
   return f;
 }
 
-void add_object(SceneBuilder& builder, const WorldObjectSpec& object, int object_id) {
-  if (object.shape == WorldObjectSpec::Shape::cylinder) {
+void add_object(SceneBuilder& builder, const host::WorldObjectSpec& object, int object_id) {
+  if (object.shape == host::WorldObjectSpec::Shape::cylinder) {
     builder.add_mesh(prism_mesh(0.5 * object.size_x_m, object.height_m, 16),
                      on_floor(object.pose, 0.0), object_id);
   } else {
@@ -213,11 +213,11 @@ void add_object(SceneBuilder& builder, const WorldObjectSpec& object, int object
   }
 }
 
-std::vector<WorldObjectSpec> place_clutter(const mrpt::maps::COccupancyGridMap2D& walls,
-                                           const ClutterSpec& spec,
-                                           const std::vector<Eigen::Vector2d>& keep_clear,
-                                           double robot_radius_m, std::mt19937_64& rng) {
-  std::vector<WorldObjectSpec> out;
+std::vector<host::WorldObjectSpec> place_clutter(const mrpt::maps::COccupancyGridMap2D& walls,
+                                                 const host::ClutterSpec& spec,
+                                                 const std::vector<Eigen::Vector2d>& keep_clear,
+                                                 double robot_radius_m, std::mt19937_64& rng) {
+  std::vector<host::WorldObjectSpec> out;
   if (spec.per_m <= 0.0) return out;
   const int nx = static_cast<int>(walls.getSizeX()), ny = static_cast<int>(walls.getSizeY());
   const double res = walls.getResolution();
@@ -241,11 +241,11 @@ std::vector<WorldObjectSpec> place_clutter(const mrpt::maps::COccupancyGridMap2D
       if (normal.squaredNorm() < 0.5) continue;
       if (uniform(rng, 0.0, 1.0) >= p_cell) continue;
       normal.normalize();
-      WorldObjectSpec o;
-      o.shape = uniform(rng, 0.0, 1.0) < 0.5 ? WorldObjectSpec::Shape::box
-                                             : WorldObjectSpec::Shape::cylinder;
+      host::WorldObjectSpec o;
+      o.shape = uniform(rng, 0.0, 1.0) < 0.5 ? host::WorldObjectSpec::Shape::box
+                                             : host::WorldObjectSpec::Shape::cylinder;
       o.size_x_m = uniform(rng, spec.min_size_m, spec.max_size_m);
-      o.size_y_m = o.shape == WorldObjectSpec::Shape::box
+      o.size_y_m = o.shape == host::WorldObjectSpec::Shape::box
                        ? uniform(rng, spec.min_size_m, spec.max_size_m)
                        : o.size_x_m;
       o.height_m = uniform(rng, spec.min_height_m, spec.max_height_m);
@@ -290,7 +290,8 @@ struct TargetExtent {
   double z_min_m = kInf, z_max_m = -kInf;
 };
 
-TargetExtent target_extent(const TriangleMesh& mesh, const Eigen::Isometry3d& T_map_model) {
+TargetExtent target_extent(const perception::TriangleMesh& mesh,
+                           const Eigen::Isometry3d& T_map_model) {
   TargetExtent e;
   const Eigen::Vector3d x_map = T_map_model.linear().col(0);
   e.yaw_rad = std::atan2(x_map.y(), x_map.x());
@@ -308,7 +309,7 @@ TargetExtent target_extent(const TriangleMesh& mesh, const Eigen::Isometry3d& T_
 
 }  // namespace
 
-std::optional<Footprint> target_footprint(const TriangleMesh& mesh,
+std::optional<Footprint> target_footprint(const perception::TriangleMesh& mesh,
                                           const Eigen::Isometry3d& T_map_model,
                                           const std::string& name) {
   if (mesh.vertices.empty()) return std::nullopt;
@@ -324,9 +325,9 @@ std::optional<Footprint> target_footprint(const TriangleMesh& mesh,
   return f;
 }
 
-std::vector<WorldObjectSpec> target_supports(const TriangleMesh& mesh,
-                                             const Eigen::Isometry3d& T_map_model) {
-  std::vector<WorldObjectSpec> out;
+std::vector<host::WorldObjectSpec> target_supports(const perception::TriangleMesh& mesh,
+                                                   const Eigen::Isometry3d& T_map_model) {
+  std::vector<host::WorldObjectSpec> out;
   if (mesh.vertices.empty()) return out;
   const TargetExtent e = target_extent(mesh, T_map_model);
   const double yaw = e.yaw_rad;
@@ -338,8 +339,8 @@ std::vector<WorldObjectSpec> target_supports(const TriangleMesh& mesh,
   const Eigen::Vector2d mid = R * (0.5 * (lo + hi));
   const double height_m = z_min - 0.002;  // just under it: the support is not the target
   if (std::min(size.x(), size.y()) >= 0.05) {
-    WorldObjectSpec plinth;
-    plinth.shape = WorldObjectSpec::Shape::box;
+    host::WorldObjectSpec plinth;
+    plinth.shape = host::WorldObjectSpec::Shape::box;
     plinth.pose = Pose2D{mid.x(), mid.y(), yaw};
     plinth.size_x_m = 0.8 * size.x();
     plinth.size_y_m = 0.8 * size.y();
@@ -353,8 +354,8 @@ std::vector<WorldObjectSpec> target_supports(const TriangleMesh& mesh,
     Eigen::Vector2d offset = Eigen::Vector2d::Zero();
     offset[long_axis] = side * size[long_axis];
     const Eigen::Vector2d at = mid + R * offset;
-    WorldObjectSpec post;
-    post.shape = WorldObjectSpec::Shape::cylinder;
+    host::WorldObjectSpec post;
+    post.shape = host::WorldObjectSpec::Shape::cylinder;
     post.pose = Pose2D{at.x(), at.y(), 0.0};
     post.size_x_m = post.size_y_m = 0.04;
     post.height_m = height_m;

@@ -18,7 +18,7 @@ Pose2D SimBaseBody::true_pose() const {
 }
 
 void SimBaseBody::step(double dt_s, const std::function<bool(const Pose2D&)>& collides,
-                       const WorldSpec& world, std::mt19937_64& rng) {
+                       const host::WorldSpec& world, std::mt19937_64& rng) {
   const Pose2D before = true_pose();
   vehicle.simulateOneTimeStep(dt_s);
   Pose2D after = true_pose();
@@ -51,8 +51,8 @@ void SimBaseBody::step(double dt_s, const std::function<bool(const Pose2D&)>& co
            (std::hypot(delta.x(), delta.y()) / dt_s > 1e-3 || std::abs(delta.phi()) / dt_s > 1e-3);
 }
 
-void SimHeadBody::step(double dt_s, double t_s, const PanTiltSpec& spec, const WorldSpec& world,
-                       std::mt19937_64& rng) {
+void SimHeadBody::step(double dt_s, double t_s, const PanTiltSpec& spec,
+                       const host::WorldSpec& world, std::mt19937_64& rng) {
   const double max_step = deg_to_rad(spec.max_rate_dps) * dt_s;
   const JointAngles before = q_true;
   // Within one step of the command the joint lands on it exactly (no rounding creep).

@@ -40,8 +40,8 @@ struct SimBaseBody {
   Pose2D true_pose() const;
   // One motion step of dt_s: the true motion, the bumper (a pose `collides` refuses stops the
   // base where it was), then odometry from the true increment, drawing from `rng`.
-  void step(double dt_s, const std::function<bool(const Pose2D&)>& collides, const WorldSpec& world,
-            std::mt19937_64& rng);
+  void step(double dt_s, const std::function<bool(const Pose2D&)>& collides,
+            const host::WorldSpec& world, std::mt19937_64& rng);
 };
 
 struct SimHeadBody {
@@ -49,11 +49,11 @@ struct SimHeadBody {
   double settle_s = 0.1;
   double at_rest_since_s = -1e9;  // at rest since before the mission
   bool moving_now = false;
-  std::unique_ptr<HeadKinematics> kinematics;  // the true one: the projector's true mount
+  std::unique_ptr<head::HeadKinematics> kinematics;  // the true one: the projector's true mount
 
   // Moves the true joints toward the command at the head's rate, then reads the encoders (bias
   // and noise from `rng`) at mission time t_s.
-  void step(double dt_s, double t_s, const PanTiltSpec& spec, const WorldSpec& world,
+  void step(double dt_s, double t_s, const PanTiltSpec& spec, const host::WorldSpec& world,
             std::mt19937_64& rng);
 };
 

@@ -14,7 +14,8 @@
 
 namespace projtour::sim {
 
-TriangleMesh perturbed_mesh(const TriangleMesh& mesh, double rms_m, std::mt19937_64& rng) {
+perception::TriangleMesh perturbed_mesh(const perception::TriangleMesh& mesh, double rms_m,
+                                        std::mt19937_64& rng) {
   if (rms_m <= 0.0) return mesh;
   std::vector<Eigen::Vector3f> normals(mesh.vertices.size(), Eigen::Vector3f::Zero());
   for (const Eigen::Vector3i& f : mesh.triangles) {
@@ -39,7 +40,7 @@ TriangleMesh perturbed_mesh(const TriangleMesh& mesh, double rms_m, std::mt19937
     sum2 += f * f;
   }
   const double scale = sum2 > 0.0 ? rms_m / std::sqrt(sum2 / field.size()) : 0.0;
-  TriangleMesh out = mesh;
+  perception::TriangleMesh out = mesh;
   for (std::size_t i = 0; i < field.size(); ++i) {
     const float len = normals[i].norm();
     if (len > 0.0f) out.vertices[i] += static_cast<float>(field[i] * scale) * (normals[i] / len);
@@ -47,14 +48,15 @@ TriangleMesh perturbed_mesh(const TriangleMesh& mesh, double rms_m, std::mt19937
   return out;
 }
 
-void TrueTargets::build(const MissionSpec& mission, const WorldSpec& world, std::mt19937_64& setup,
+void TrueTargets::build(const MissionSpec& mission, const host::WorldSpec& world,
+                        std::mt19937_64& setup,
                         const std::function<TargetFaultFlags(const std::string&)>& flags) {
   // By model file: targets may share one.
-  std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
+  std::map<std::string, std::shared_ptr<const perception::TriangleMesh>> meshes;
   for (const TargetSpec& spec : mission.targets) {
     TrueTarget t;
     t.spec = &spec;
-    t.standoff = standoff_pose(spec);
+    t.standoff = navigation::standoff_pose(spec);
     Eigen::Isometry3d T_map_model = Eigen::Isometry3d::Identity();
     const auto listed = world.T_map_model_true.find(spec.id);
     // Offsets are drawn for every target, listed or not, so listing one does not move another.
@@ -71,7 +73,8 @@ void TrueTargets::build(const MissionSpec& mission, const WorldSpec& world, std:
     const std::string key = spec.model.string();
     if (!meshes.count(key)) {
       try {
-        meshes[key] = std::make_shared<const TriangleMesh>(load_mesh(spec.model));
+        meshes[key] =
+            std::make_shared<const perception::TriangleMesh>(perception::load_mesh(spec.model));
       } catch (const std::exception& e) {
         throw std::runtime_error(std::string("simulated world: target '") + spec.id +
                                  "': the simulator renders meshes: " + e.what());
@@ -88,7 +91,7 @@ void TrueTargets::build(const MissionSpec& mission, const WorldSpec& world, std:
     }
     if (t.object == objects.size()) {
       TrueObject o;
-      o.mesh = world.model_error ? std::make_shared<const TriangleMesh>(perturbed_mesh(
+      o.mesh = world.model_error ? std::make_shared<const perception::TriangleMesh>(perturbed_mesh(
                                        *meshes[key], world.model_error_noise_mm * 1e-3, setup))
                                  : meshes[key];
       o.T_map_model = T_map_model;

@@ -24,7 +24,8 @@ namespace projtour::sim {
 // visited again (a long day's tour goes back and forth): it is perturbed and rendered once,
 // so the world's size follows the objects in the building, not the visits in the mission.
 struct TrueObject {
-  std::shared_ptr<const TriangleMesh> mesh;  // model frame, the true (perturbed) surface
+  std::shared_ptr<const perception::TriangleMesh>
+      mesh;  // model frame, the true (perturbed) surface
   Eigen::Isometry3d T_map_model = Eigen::Isometry3d::Identity();
   int object_id = 0;
   std::string model_key;
@@ -68,7 +69,7 @@ struct TrueTargets {
 
   // The mission's targets in order, drawing offsets and surfaces from `setup` (the order of
   // the draws is every run's: see the .cpp).
-  void build(const MissionSpec& mission, const WorldSpec& world, std::mt19937_64& setup,
+  void build(const MissionSpec& mission, const host::WorldSpec& world, std::mt19937_64& setup,
              const std::function<TargetFaultFlags(const std::string&)>& flags);
 
   TrueTarget* find(const std::string& id);
@@ -86,6 +87,7 @@ struct TrueTargets {
 // The true surface differs from the robot's model by a smooth field of about `rms_m` along the
 // vertex normals: a sum of random plane waves of 4 to 15 cm wavelength, as a Kinect Fusion scan
 // differs from the object it was made of.
-TriangleMesh perturbed_mesh(const TriangleMesh& mesh, double rms_m, std::mt19937_64& rng);
+perception::TriangleMesh perturbed_mesh(const perception::TriangleMesh& mesh, double rms_m,
+                                        std::mt19937_64& rng);
 
 }  // namespace projtour::sim

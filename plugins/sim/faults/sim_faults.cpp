@@ -27,7 +27,8 @@ Eigen::Vector2d toward_standoff(const Eigen::Vector3d& c, const Pose2D& standoff
 
 }  // namespace
 
-const FaultSpec* SimFaults::find(const std::string& target_id, const std::string& type) const {
+const host::FaultSpec* SimFaults::find(const std::string& target_id,
+                                       const std::string& type) const {
   for (const auto& f : *faults_) {
     if (f.target == target_id && f.type == type) return &f;
   }
@@ -45,12 +46,13 @@ void SimFaults::place(const TrueTargets& targets, WorldBodies& bodies) {
   for (std::size_t i = 0; i < targets.targets.size(); ++i) {
     const TrueTarget& t = targets.targets[i];
     const Eigen::Isometry3d& T_map_model = targets.object(t).T_map_model;
-    if (const FaultSpec* f = find(t.spec->id, "occluder")) {
+    if (const host::FaultSpec* f = find(t.spec->id, "occluder")) {
       place_occluder(*f, t, T_map_model, bodies);
     }
-    if (const FaultSpec* f = find(t.spec->id, "blocked_path")) place_blocked_path(*f, t, bodies);
-    if (const FaultSpec* f = find(t.spec->id, "pole")) place_pole(*f, t, T_map_model, bodies);
-    for (const FaultSpec& f : *faults_) {
+    if (const host::FaultSpec* f = find(t.spec->id, "blocked_path"))
+      place_blocked_path(*f, t, bodies);
+    if (const host::FaultSpec* f = find(t.spec->id, "pole")) place_pole(*f, t, T_map_model, bodies);
+    for (const host::FaultSpec& f : *faults_) {
       if (f.target == t.spec->id && (f.type == "person_standing" || f.type == "person_crossing")) {
         person_faults_.push_back({i, &f, false});
       }
@@ -59,23 +61,24 @@ void SimFaults::place(const TrueTargets& targets, WorldBodies& bodies) {
 }
 
 // A board hanging above the laser plane between the target and its stand-off pose.
-void SimFaults::place_occluder(const FaultSpec& f, const TrueTarget& t,
+void SimFaults::place_occluder(const host::FaultSpec& f, const TrueTarget& t,
                                const Eigen::Isometry3d& T_map_model, WorldBodies& bodies) const {
   const Eigen::Vector3d c = T_map_model.translation();
   const Eigen::Vector2d dir = toward_standoff(c, t.standoff);
-  const double d = fault_number(f, "distance_m");
+  const double d = host::fault_number(f, "distance_m");
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() =
       Eigen::AngleAxisd(std::atan2(dir.y(), dir.x()), Eigen::Vector3d::UnitZ()).toRotationMatrix();
   T.translation() = Eigen::Vector3d(c.x() + d * dir.x(), c.y() + d * dir.y(), c.z());
-  bodies.fixed_parts.add_box(
-      T, Eigen::Vector3d(0.01, 0.5 * fault_number(f, "width_m"), 0.5 * fault_number(f, "height_m")),
-      kObstacleId);
+  bodies.fixed_parts.add_box(T,
+                             Eigen::Vector3d(0.01, 0.5 * host::fault_number(f, "width_m"),
+                                             0.5 * host::fault_number(f, "height_m")),
+                             kObstacleId);
 }
 
-void SimFaults::place_blocked_path(const FaultSpec& f, const TrueTarget& t,
+void SimFaults::place_blocked_path(const host::FaultSpec& f, const TrueTarget& t,
                                    WorldBodies& bodies) const {
-  const double half = 0.5 * fault_number(f, "size_m");
+  const double half = 0.5 * host::fault_number(f, "size_m");
   const Box2 box{{t.standoff.x_m - half, t.standoff.y_m - half},
                  {t.standoff.x_m + half, t.standoff.y_m + half}};
   bodies.obstacles.push_back(box);
@@ -98,14 +101,15 @@ void SimFaults::place_blocked_path(const FaultSpec& f, const TrueTarget& t,
 
 // Standing between the target and its stand-off pose: it takes the projector's light meant for
 // the target (and a shadow across it), and the depth camera sees it.
-void SimFaults::place_pole(const FaultSpec& f, const TrueTarget& t,
+void SimFaults::place_pole(const host::FaultSpec& f, const TrueTarget& t,
                            const Eigen::Isometry3d& T_map_model, WorldBodies& bodies) const {
   const Eigen::Vector3d c = T_map_model.translation();
   const Eigen::Vector2d dir = toward_standoff(c, t.standoff);
   const Eigen::Vector2d left(-dir.y(), dir.x());  // seen from the target, facing the robot
-  const Eigen::Vector2d at = Eigen::Vector2d(c.x(), c.y()) + fault_number(f, "distance_m") * dir +
-                             fault_number(f, "offset_m") * left;
-  const double radius_m = 0.5 * fault_number(f, "diameter_m");
+  const Eigen::Vector2d at = Eigen::Vector2d(c.x(), c.y()) +
+                             host::fault_number(f, "distance_m") * dir +
+                             host::fault_number(f, "offset_m") * left;
+  const double radius_m = 0.5 * host::fault_number(f, "diameter_m");
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.translation() = Eigen::Vector3d(at.x(), at.y(), 0.0);
   bodies.fixed_parts.add_mesh(prism_mesh(radius_m, kPoleHeight_m, kPoleSides), T, kObstacleId);
@@ -134,12 +138,12 @@ void SimFaults::kidnap_if_arrived(TrueTarget* t, SimBaseBody& base,
                                   const std::function<bool(const Pose2D&)>& collides,
                                   std::mt19937_64& rng) const {
   if (t == nullptr || t->kidnapped || base.moving) return;
-  const FaultSpec* f = find(t->spec->id, "kidnap");
+  const host::FaultSpec* f = find(t->spec->id, "kidnap");
   if (f == nullptr) return;
   const Pose2D p = base.true_pose();
   if (std::hypot(p.x_m - t->standoff.x_m, p.y_m - t->standoff.y_m) > 0.3) return;
   t->kidnapped = true;
-  const double distance = fault_number(*f, "distance_m");
+  const double distance = host::fault_number(*f, "distance_m");
   const double first = uniform(rng, 0.0, 2.0 * kPi);
   // Look for a free spot in one of 16 directions, starting at a seeded one.
   for (int k = 0; k < 16; ++k) {
@@ -155,21 +159,22 @@ void SimFaults::kidnap_if_arrived(TrueTarget* t, SimBaseBody& base,
 
 bool SimFaults::nudge_if_due(TrueTarget* t, TrueTargets& targets, double t_s) const {
   if (t == nullptr || t->nudged || !t->first_shown_s) return false;
-  const FaultSpec* f = find(t->spec->id, "target_nudge");
-  if (f == nullptr || t_s + 1e-9 < *t->first_shown_s + fault_number(*f, "after_s")) return false;
+  const host::FaultSpec* f = find(t->spec->id, "target_nudge");
+  if (f == nullptr || t_s + 1e-9 < *t->first_shown_s + host::fault_number(*f, "after_s"))
+    return false;
   t->nudged = true;
   Eigen::Vector3d shift_map;
   if (f->values.count("dx_m") || f->values.count("dy_m")) {
-    shift_map = {fault_number(*f, "dx_m"), fault_number(*f, "dy_m"), 0.0};
+    shift_map = {host::fault_number(*f, "dx_m"), host::fault_number(*f, "dy_m"), 0.0};
   } else {
-    const double distance_m = fault_number(*f, "distance_m");
-    const double direction_rad = deg_to_rad(fault_number(*f, "direction_deg"));
+    const double distance_m = host::fault_number(*f, "distance_m");
+    const double direction_rad = deg_to_rad(host::fault_number(*f, "direction_deg"));
     shift_map = {distance_m * std::cos(direction_rad), distance_m * std::sin(direction_rad), 0.0};
   }
   TrueObject& o = targets.object(*t);  // a nudged target's object is its own (TrueObject::shared)
   o.T_map_model.pretranslate(shift_map);
   o.T_map_model.rotate(
-      Eigen::AngleAxisd(deg_to_rad(fault_number(*f, "yaw_deg")), Eigen::Vector3d::UnitZ()));
+      Eigen::AngleAxisd(deg_to_rad(host::fault_number(*f, "yaw_deg")), Eigen::Vector3d::UnitZ()));
   targets.alone_cache.reset();
   return true;
 }
@@ -180,8 +185,8 @@ bool SimFaults::people_if_due(const TrueTargets& targets, Crowd& crowd, double t
     if (pf.done) continue;
     const TrueTarget& t = targets.targets[pf.target];
     if (!t.first_shown_s) continue;
-    const FaultSpec& f = *pf.fault;
-    const double start_s = *t.first_shown_s + fault_number(f, "after_s");
+    const host::FaultSpec& f = *pf.fault;
+    const double start_s = *t.first_shown_s + host::fault_number(f, "after_s");
     if (t_s + 1e-9 < start_s) continue;
     pf.done = true;
     added = true;
@@ -190,15 +195,15 @@ bool SimFaults::people_if_due(const TrueTargets& targets, Crowd& crowd, double t
     const Eigen::Vector2d toward = toward_standoff(c3, t.standoff);
     const Eigen::Vector2d left(-toward.y(), toward.x());
     if (f.type == "person_standing") {
-      const Eigen::Vector2d spot =
-          c + fault_number(f, "distance_m") * toward + fault_number(f, "offset_m") * left;
+      const Eigen::Vector2d spot = c + host::fault_number(f, "distance_m") * toward +
+                                   host::fault_number(f, "offset_m") * left;
       crowd.add_scripted({spot + 2.5 * left, spot, spot + 2.5 * left},
-                         {0.0, fault_number(f, "for_s"), 0.0}, kStandingWalkSpeed_mps, t_s);
+                         {0.0, host::fault_number(f, "for_s"), 0.0}, kStandingWalkSpeed_mps, t_s);
     } else {
-      const Eigen::Vector2d mid = c + fault_number(f, "distance_m") * toward;
-      const int times = std::max(1, static_cast<int>(fault_number(f, "times")));
-      const double every_s = fault_number(f, "every_s");
-      const double speed = fault_number(f, "speed_mps");
+      const Eigen::Vector2d mid = c + host::fault_number(f, "distance_m") * toward;
+      const int times = std::max(1, static_cast<int>(host::fault_number(f, "times")));
+      const double every_s = host::fault_number(f, "every_s");
+      const double speed = host::fault_number(f, "speed_mps");
       for (int k = 0; k < times; ++k) {
         const double sign = k % 2 == 0 ? 1.0 : -1.0;
         crowd.add_scripted({mid + sign * 2.0 * left, mid - sign * 2.0 * left}, {}, speed,
@@ -211,36 +216,38 @@ bool SimFaults::people_if_due(const TrueTargets& targets, Crowd& crowd, double t
 
 bool SimFaults::depth_disconnected(const TrueTarget* here) const {
   if (here == nullptr) return false;
-  const FaultSpec* f = find(here->spec->id, "camera_disconnect");
-  return f != nullptr && here->frames_here >= static_cast<int>(fault_number(*f, "after_frames"));
+  const host::FaultSpec* f = find(here->spec->id, "camera_disconnect");
+  return f != nullptr &&
+         here->frames_here >= static_cast<int>(host::fault_number(*f, "after_frames"));
 }
 
 // One device: the Kinect's colour stream goes with its depth stream, each after as many of its
 // own frames.
 bool SimFaults::colour_disconnected(const TrueTarget* here) const {
   if (here == nullptr) return false;
-  const FaultSpec* f = find(here->spec->id, "camera_disconnect");
+  const host::FaultSpec* f = find(here->spec->id, "camera_disconnect");
   return f != nullptr &&
-         here->colour_frames_here >= static_cast<int>(fault_number(*f, "after_frames"));
+         here->colour_frames_here >= static_cast<int>(host::fault_number(*f, "after_frames"));
 }
 
 bool SimFaults::projector_failed(const TrueTarget* here) const {
   if (here == nullptr) return false;
-  const FaultSpec* f = find(here->spec->id, "projector_failure");
-  return f != nullptr && here->shows_here >= static_cast<int>(fault_number(*f, "after_shows"));
+  const host::FaultSpec* f = find(here->spec->id, "projector_failure");
+  return f != nullptr &&
+         here->shows_here >= static_cast<int>(host::fault_number(*f, "after_shows"));
 }
 
 bool SimFaults::frame_dropped(const TrueTarget* here, std::mt19937_64& rng) const {
   if (here == nullptr) return false;
-  const FaultSpec* f = find(here->spec->id, "frame_dropout");
-  return f != nullptr && uniform(rng, 0.0, 1.0) < fault_number(*f, "fraction");
+  const host::FaultSpec* f = find(here->spec->id, "frame_dropout");
+  return f != nullptr && uniform(rng, 0.0, 1.0) < host::fault_number(*f, "fraction");
 }
 
 std::optional<double> SimFaults::daylight_lux(const TrueTarget* here) const {
   if (here == nullptr) return std::nullopt;
-  const FaultSpec* f = find(here->spec->id, "daylight");
+  const host::FaultSpec* f = find(here->spec->id, "daylight");
   if (f == nullptr) return std::nullopt;
-  return fault_number(*f, "lux");
+  return host::fault_number(*f, "lux");
 }
 
 }  // namespace projtour::sim

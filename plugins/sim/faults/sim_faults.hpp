@@ -20,10 +20,10 @@ namespace projtour::sim {
 class SimFaults {
  public:
   // `faults` must outlive this (the world's copy of the world file).
-  explicit SimFaults(const std::vector<FaultSpec>& faults) : faults_(&faults) {}
+  explicit SimFaults(const std::vector<host::FaultSpec>& faults) : faults_(&faults) {}
 
   // The target's fault of that type, or nullptr.
-  const FaultSpec* find(const std::string& target_id, const std::string& type) const;
+  const host::FaultSpec* find(const std::string& target_id, const std::string& type) const;
   // Whether a fault removes the target's object or moves it (then no other target shares it).
   TargetFaultFlags flags(const std::string& target_id) const;
 
@@ -55,16 +55,16 @@ class SimFaults {
  private:
   struct PersonFault {
     std::size_t target = 0;
-    const FaultSpec* fault = nullptr;
+    const host::FaultSpec* fault = nullptr;
     bool done = false;
   };
-  void place_occluder(const FaultSpec& f, const TrueTarget& t, const Eigen::Isometry3d& T_map_model,
-                      WorldBodies& bodies) const;
-  void place_blocked_path(const FaultSpec& f, const TrueTarget& t, WorldBodies& bodies) const;
-  void place_pole(const FaultSpec& f, const TrueTarget& t, const Eigen::Isometry3d& T_map_model,
-                  WorldBodies& bodies) const;
+  void place_occluder(const host::FaultSpec& f, const TrueTarget& t,
+                      const Eigen::Isometry3d& T_map_model, WorldBodies& bodies) const;
+  void place_blocked_path(const host::FaultSpec& f, const TrueTarget& t, WorldBodies& bodies) const;
+  void place_pole(const host::FaultSpec& f, const TrueTarget& t,
+                  const Eigen::Isometry3d& T_map_model, WorldBodies& bodies) const;
 
-  const std::vector<FaultSpec>* faults_;
+  const std::vector<host::FaultSpec>* faults_;
   std::vector<PersonFault> person_faults_;
 };
 

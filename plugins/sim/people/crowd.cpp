@@ -17,7 +17,7 @@ constexpr float kFree = 0.5f;
 
 }  // namespace
 
-Crowd::Crowd(const CrowdSpec& spec, const mrpt::maps::COccupancyGridMap2D* walls,
+Crowd::Crowd(const host::CrowdSpec& spec, const mrpt::maps::COccupancyGridMap2D* walls,
              const std::vector<Footprint>& objects, const std::vector<Eigen::Vector2d>& homes,
              int first_object_id, std::uint64_t seed)
     : spec_(spec), homes_(homes), first_object_id_(first_object_id), rng_(seed) {
@@ -54,7 +54,7 @@ Crowd::Crowd(const CrowdSpec& spec, const mrpt::maps::COccupancyGridMap2D* walls
       }
     }
   }
-  auto add = [&](const PersonSpec& s, bool random_start) {
+  auto add = [&](const host::PersonSpec& s, bool random_start) {
     Person p;
     p.route_m = s.route_m;
     p.loop = s.loop;
@@ -87,9 +87,9 @@ Crowd::Crowd(const CrowdSpec& spec, const mrpt::maps::COccupancyGridMap2D* walls
     }
     people_.push_back(std::move(p));
   };
-  for (const PersonSpec& s : spec.list) add(s, false);
+  for (const host::PersonSpec& s : spec.list) add(s, false);
   for (int k = 0; k < spec.walkers; ++k) {
-    PersonSpec s;
+    host::PersonSpec s;
     s.speed_mps = uniform(rng_, spec.min_speed_mps, spec.max_speed_mps);
     add(s, true);
   }

@@ -24,7 +24,7 @@ class Crowd {
  public:
   // `walls` (the building's, with glass) and `objects` bound where people can walk; random
   // walkers roam about `homes` (points on the tour), starting at seeded free spots near them.
-  Crowd(const CrowdSpec& spec, const mrpt::maps::COccupancyGridMap2D* walls,
+  Crowd(const host::CrowdSpec& spec, const mrpt::maps::COccupancyGridMap2D* walls,
         const std::vector<Footprint>& objects, const std::vector<Eigen::Vector2d>& homes,
         int first_object_id, std::uint64_t seed);
 
@@ -68,7 +68,7 @@ class Crowd {
   void choose_goal(Person& p);
   void update_shapes();
 
-  CrowdSpec spec_;
+  host::CrowdSpec spec_;
   std::vector<Person> people_;
   std::vector<PersonShape> shapes_;
   std::vector<Eigen::Vector2d> homes_;

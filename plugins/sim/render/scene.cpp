@@ -142,8 +142,8 @@ void SceneBuilder::add_triangle(const Eigen::Vector3f& a, const Eigen::Vector3f&
   objects_.push_back(object_id);
 }
 
-void SceneBuilder::add_mesh(const TriangleMesh& mesh, const Eigen::Isometry3d& T_world_mesh,
-                            int object_id) {
+void SceneBuilder::add_mesh(const perception::TriangleMesh& mesh,
+                            const Eigen::Isometry3d& T_world_mesh, int object_id) {
   const Eigen::Isometry3f T = T_world_mesh.cast<float>();
   std::vector<Eigen::Vector3f> world(mesh.vertices.size());
   for (std::size_t i = 0; i < world.size(); ++i) {

@@ -32,17 +32,17 @@ using namespace projtour::ros2;
 int run_bridge(const std::filesystem::path& mission_file,
                const std::optional<std::filesystem::path>& world_file, std::uint64_t seed,
                double idle_exit_s) {
-  Diagnostics diag;
-  auto mission = load_mission(mission_file, diag);
-  std::optional<WorldSpec> world;
-  if (mission && world_file) world = load_world(*world_file, *mission, diag);
+  host::Diagnostics diag;
+  auto mission = host::load_mission(mission_file, diag);
+  std::optional<host::WorldSpec> world;
+  if (mission && world_file) world = host::load_world(*world_file, *mission, diag);
   if (diag.has_errors() || !mission) {
     std::cerr << diag.format();
     return 2;
   }
   std::shared_ptr<mrpt::maps::COccupancyGridMap2D> map;
   try {
-    map = load_occupancy_grid(mission->map);
+    map = navigation::load_occupancy_grid(mission->map);
   } catch (const std::exception& e) {
     std::cerr << "projtour-sim-ros2: " << e.what() << "\n";
     return 2;

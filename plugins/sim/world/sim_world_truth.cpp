@@ -48,7 +48,7 @@ cv::Mat SimWorld::Impl::colour_panel(
   return colour_view_panel(image, T_map_camera_then, model_points_map, observed_px, caption.str());
 }
 
-const TriangleMesh& SimWorld::true_mesh(const std::string& target_id) const {
+const perception::TriangleMesh& SimWorld::true_mesh(const std::string& target_id) const {
   const TrueTarget* t = impl_->targets.find(target_id);
   if (t == nullptr) throw std::out_of_range("simulated world: no target '" + target_id + "'");
   return *impl_->targets.object(*t).mesh;
@@ -60,7 +60,7 @@ Eigen::Isometry3d SimWorld::true_T_map_base() const {
 
 Eigen::Isometry3d SimWorld::true_T_map_base_as_drawn() const {
   const Pose2D p = impl_->true_pose();
-  const MapErrorSpec& error = impl_->world.map_error;
+  const host::MapErrorSpec& error = impl_->world.map_error;
   const Eigen::Vector2d on_map =
       map_point_of(Eigen::Vector2d(p.x_m, p.y_m), error,
                    Eigen::Vector2d(impl_->mission->start.x_m, impl_->mission->start.y_m));

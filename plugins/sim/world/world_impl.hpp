@@ -34,7 +34,7 @@ struct SimWorld::Impl {
 
   const RunContext* run = nullptr;
   const MissionSpec* mission = nullptr;
-  WorldSpec world;
+  host::WorldSpec world;
   std::uint64_t seed = 1;
   RunStreams rng;
 

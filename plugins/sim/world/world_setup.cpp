@@ -19,7 +19,7 @@ namespace projtour::sim {
 SimWorld::Impl::Impl(const RunContext& run_context)
     : run(&run_context),
       mission(run_context.mission),
-      world(run_context.world ? *run_context.world : WorldSpec{}),
+      world(run_context.world ? *run_context.world : host::WorldSpec{}),
       seed(run_context.seed) {
   std::mt19937_64 setup = stream(seed, Stream::setup);
   rng.odometry = stream(seed, Stream::odometry);
@@ -66,7 +66,7 @@ void SimWorld::Impl::set_up_robot(std::mt19937_64& setup) {
                        .toRotationMatrix();
   projector_true.T_link_body = projector_true.T_link_body * calib;
   head.kinematics =
-      std::make_unique<HeadKinematics>(robot.pan_tilt, robot.camera.mount, projector_true);
+      std::make_unique<head::HeadKinematics>(robot.pan_tilt, robot.camera.mount, projector_true);
 }
 
 void SimWorld::Impl::set_up_building(std::mt19937_64& setup, std::mt19937_64& building) {
@@ -77,7 +77,7 @@ void SimWorld::Impl::set_up_building(std::mt19937_64& setup, std::mt19937_64& bu
   // Glass: the building's walls the laser and the cameras see through (the bumper does not).
   auto without_glass = [&]() {
     auto seen = std::make_shared<mrpt::maps::COccupancyGridMap2D>(*bodies.grid);
-    for (const WallSegmentSpec& g : world.glass) paint_segment(*seen, g, 1.0f);
+    for (const host::WallSegmentSpec& g : world.glass) paint_segment(*seen, g, 1.0f);
     return seen;
   };
   for (std::size_t i = 0; i < world.glass.size(); ++i) {
@@ -99,7 +99,7 @@ void SimWorld::Impl::set_up_building(std::mt19937_64& setup, std::mt19937_64& bu
 
 // The unmapped objects: listed, supports under the targets, clutter along the walls.
 void SimWorld::Impl::add_unmapped_objects(std::mt19937_64& building) {
-  std::vector<std::pair<WorldObjectSpec, std::string>> unmapped;
+  std::vector<std::pair<host::WorldObjectSpec, std::string>> unmapped;
   for (std::size_t i = 0; i < world.objects.size(); ++i) {
     unmapped.emplace_back(world.objects[i], "object " + std::to_string(i));
   }
@@ -113,7 +113,7 @@ void SimWorld::Impl::add_unmapped_objects(std::mt19937_64& building) {
           break;
         }
       }
-      for (const WorldObjectSpec& s : target_supports(*o.mesh, o.T_map_model)) {
+      for (const host::WorldObjectSpec& s : target_supports(*o.mesh, o.T_map_model)) {
         unmapped.emplace_back(s, name);
       }
     }

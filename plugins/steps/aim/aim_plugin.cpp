@@ -69,11 +69,11 @@ class Aim : public Behaviour {
     if (!aim_at_origin_) {
       for (const auto& p : target.model_points) p_model += p / 4.0;
     }
-    const HeadKinematics kinematics =
-        believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration));
+    const head::HeadKinematics kinematics =
+        head::believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration));
     const auto T_base_aligned =
-        aligned_T_base_model(ctx.robot(), ctx.blackboard().find(keys::kAlign),
-                             ctx.blackboard().find(keys::kCapture), estimate->mean);
+        head::aligned_T_base_model(ctx.robot(), ctx.blackboard().find(keys::kAlign),
+                                   ctx.blackboard().find(keys::kCapture), estimate->mean);
     if (T_base_aligned) ctx.log().debug("aim " + target.id + ": re-aiming at the aligned pose");
     const Eigen::Isometry3d T_base_model =
         T_base_aligned ? *T_base_aligned
@@ -94,8 +94,8 @@ class Aim : public Behaviour {
       // Where the target really is, its content may not fit the projector image from this
       // stand-off at any angle (a target nearer than the map has it): the base re-approaches.
       const std::string problem =
-          content_fit_problem(kinematics, ctx.robot().projector.intrinsics, target.model_points,
-                              p_model, T_base_model, edge_margin_px_);
+          head::content_fit_problem(kinematics, ctx.robot().projector.intrinsics,
+                                    target.model_points, p_model, T_base_model, edge_margin_px_);
       if (!problem.empty()) {
         early_ =
             Outcome{outcome::kReapproach, "target " + target.id + ": aimed at its aligned pose, " +

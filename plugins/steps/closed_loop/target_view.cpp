@@ -44,19 +44,20 @@ TargetViewOrOutcome look_at_target(Context& ctx, double edge_margin_px) {
   v.model = aligned->model;
   v.capture = capture;
   v.joints = d.pan_tilt->measured();
-  v.kinematics.emplace(believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration)));
+  v.kinematics.emplace(
+      head::believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration)));
   v.T_projector_camera = v.kinematics->T_projector_camera(v.joints);
   for (int i = 0; i < 4; ++i)
     v.model_points_camera[i] = v.T_camera_model * ctx.target->model_points[i];
   const PinholeModel& projector = ctx.robot().projector.intrinsics;
-  v.quad = project_model_points(ctx.target->model_points, v.T_projector_camera * v.T_camera_model,
-                                projector);
+  v.quad = head::project_model_points(ctx.target->model_points,
+                                      v.T_projector_camera * v.T_camera_model, projector);
   TargetViewOrOutcome out;
   if (edge_margin_px < 0.0) {
     out.view = std::move(v);
     return out;
   }
-  const std::string problem = edge_problem(v.quad, projector, edge_margin_px);
+  const std::string problem = head::edge_problem(v.quad, projector, edge_margin_px);
   if (!problem.empty()) {
     out.outcome = Outcome{outcome::kOffScreen, who + problem};
     return out;

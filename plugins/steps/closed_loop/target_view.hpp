@@ -21,10 +21,10 @@ namespace projtour::closed_loop {
 struct TargetView {
   Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
   std::shared_ptr<const ModelCloud> model;
-  JointAngles joints;                        // measured now; the head holds still through the step
-  std::optional<HeadKinematics> kinematics;  // believed: robot file + calibration
+  JointAngles joints;  // measured now; the head holds still through the step
+  std::optional<head::HeadKinematics> kinematics;  // believed: robot file + calibration
   Eigen::Isometry3d T_projector_camera = Eigen::Isometry3d::Identity();
-  ProjectedQuad quad;  // Model Points in the projector
+  head::ProjectedQuad quad;  // Model Points in the projector
   std::array<Eigen::Vector3d, 4> model_points_camera;
   const CapturedFrame* capture = nullptr;  // the depth frame align fitted
 };

@@ -133,7 +133,7 @@ cv::Mat as_mat(const ColourFrame& f) {
 Verify::Verify(const Params& params, const RunContext& run)
     : settings_(std::make_unique<VerifySettings>(read_verify_settings(params))) {
   if (run.mission == nullptr) throw std::invalid_argument("verify needs the mission's robot");
-  warper_ = std::make_unique<ContentWarper>(run.mission->robot.projector.intrinsics);
+  warper_ = std::make_unique<head::ContentWarper>(run.mission->robot.projector.intrinsics);
 }
 
 Verify::~Verify() = default;
@@ -211,12 +211,12 @@ VerifyMeasured Verify::measure(Context& ctx) {
 
   // What the depth fit is worth at the Model Points: the spread of the fits made without each
   // part of the model.
-  const IcpModel icp_model(*view_->model);
-  const OrganizedCloud scene =
-      organized_cloud(view_->capture->frame, robot.camera.depth_to_color_m);
-  const PoseSpread spread =
-      pose_spread(icp_model, scene, view_->T_camera_model,
-                  {ctx.target->model_points.begin(), ctx.target->model_points.end()});
+  const perception::IcpModel icp_model(*view_->model);
+  const perception::OrganizedCloud scene =
+      perception::organized_cloud(view_->capture->frame, robot.camera.depth_to_color_m);
+  const perception::PoseSpread spread =
+      perception::pose_spread(icp_model, scene, view_->T_camera_model,
+                              {ctx.target->model_points.begin(), ctx.target->model_points.end()});
   m.spread_model_point_mm = spread.model_point_mm;
   m.spread_blocks = spread.blocks;
   m.spread_matches = spread.matches;

@@ -33,7 +33,7 @@ class Verify : public LitStep {
   void write_view(const Context& ctx) const;
 
   std::unique_ptr<VerifySettings> settings_;
-  std::unique_ptr<ContentWarper> warper_;
+  std::unique_ptr<head::ContentWarper> warper_;
   std::vector<cv::Mat> frames_;  // dark, dots, the content area lit white
   VerifyResult result_;
   std::array<Eigen::Vector3d, 4> slide_at_{};  // each Model Point's slide the outline sees

@@ -74,7 +74,7 @@ Navigate::Navigate(const Params& params, const RunContext& run)
   }
   if (max_speed_mps_ <= 0.0) max_speed_mps_ = 0.5;
   if (max_turn_rate_radps_ <= 0.0) max_turn_rate_radps_ = deg_to_rad(60.0);
-  map_planner_ = std::make_shared<const PathPlanner>(*run.map, radius_m);
+  map_planner_ = std::make_shared<const navigation::PathPlanner>(*run.map, radius_m);
 }
 
 void Navigate::command(Context& ctx, double v_mps, double w_radps) {
@@ -90,12 +90,13 @@ void Navigate::start(Context& ctx) {
   // Back at a target align has measured (aim's reapproach), the stand-off is taken from where the
   // target really stands, not from where the map has it, and as much farther than the target's
   // standoff_m as the content needs to fit the projector image.
-  if (const auto T_map_model = aligned_T_map_model(ctx.robot(), ctx.blackboard().find(keys::kAlign),
-                                                   ctx.blackboard().find(keys::kCapture))) {
+  if (const auto T_map_model =
+          head::aligned_T_map_model(ctx.robot(), ctx.blackboard().find(keys::kAlign),
+                                    ctx.blackboard().find(keys::kCapture))) {
     TargetSpec measured = *ctx.target;
     measured.T_map_model = *T_map_model;
-    const HeadKinematics kinematics =
-        believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration));
+    const head::HeadKinematics kinematics =
+        head::believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration));
     Eigen::Vector3d p_aim = Eigen::Vector3d::Zero();
     for (const auto& p : measured.model_points) p_aim += p / 4.0;
     std::optional<double> chosen_m;
@@ -104,12 +105,12 @@ void Navigate::start(Context& ctx) {
         static_cast<int>(std::floor(reapproach_max_extra_m_ / kReapproachStepM + 1e-9));
     for (int k = 0; k <= steps && !chosen_m; ++k) {
       measured.standoff_m = ctx.target->standoff_m + k * kReapproachStepM;
-      const Pose2D candidate = standoff_pose(measured);
+      const Pose2D candidate = navigation::standoff_pose(measured);
       if (!map_planner_->grid().fits(Eigen::Vector2d(candidate.x_m, candidate.y_m))) {
         problem = "the stand-off " + std::to_string(measured.standoff_m) + " m off is not free";
         continue;
       }
-      problem = content_fit_problem(
+      problem = head::content_fit_problem(
           kinematics, ctx.robot().projector.intrinsics, measured.model_points, p_aim,
           isometry_from_pose2d(candidate).inverse() * *T_map_model, reapproach_margin_px_);
       if (problem.empty()) {
@@ -130,10 +131,10 @@ void Navigate::start(Context& ctx) {
     ctx.log().debug("navigate " + ctx.target->id + ": re-approaching the aligned pose from " +
                     std::to_string(*chosen_m) + " m");
   } else {
-    goal_ = standoff_pose(*ctx.target);
+    goal_ = navigation::standoff_pose(*ctx.target);
   }
-  planner_ = std::make_unique<PathPlanner>(*map_planner_);
-  path_ = PlannedPath{};
+  planner_ = std::make_unique<navigation::PathPlanner>(*map_planner_);
+  path_ = navigation::PlannedPath{};
   result_ = NavigateResult{};
   progress_index_ = 0;
   final_turn_ = false;
@@ -200,7 +201,7 @@ std::vector<Eigen::Vector2d> Navigate::obstacles_on_path(Context& ctx, const Pos
   const LaserScan* scan = ctx.blackboard().find(keys::kLaserScan);
   if (!scan || path_.points_m.empty()) return hits;
   const Eigen::Isometry3d T_map_laser = isometry_from_pose2d(pose) * scan->T_base_laser;
-  const InflatedGrid& grid = map_planner_->grid();
+  const navigation::InflatedGrid& grid = map_planner_->grid();
   const double clearance_m = grid.robot_radius_m() + kUnmappedClearanceM;
   const Eigen::Vector2d robot(pose.x_m, pose.y_m);
   for (std::size_t i = 0; i < scan->ranges_m.size(); ++i) {
@@ -237,11 +238,11 @@ std::vector<Eigen::Vector2d> Navigate::obstacles_on_path(Context& ctx, const Pos
 // Lost (the estimate too wide, or its scans off the map too long) or out of time.
 std::optional<Outcome> Navigate::check_localization(Context& ctx, const PoseEstimate2D& estimate,
                                                     double now_s) {
-  if (position_std_m(estimate) > lost_std_m_) {
+  if (navigation::position_std_m(estimate) > lost_std_m_) {
     command(ctx, 0, 0);
     return Outcome{outcome::kLost, "localization standard deviation " +
-                                       std::to_string(position_std_m(estimate)) + " m exceeds " +
-                                       std::to_string(lost_std_m_) + " m"};
+                                       std::to_string(navigation::position_std_m(estimate)) +
+                                       " m exceeds " + std::to_string(lost_std_m_) + " m"};
   }
   // A tight cloud whose scans no longer fit the map is as lost as a wide one.
   const bool* converged = ctx.blackboard().find(keys::kLocalizationConverged);
@@ -279,7 +280,7 @@ void Navigate::detour(Context& ctx, const Pose2D& pose,
   if (!replan(ctx, pose, remaining_m(pose) + max_detour_m_)) {
     // No way round, or only a long one: wait on the path it has, for what blocks it may
     // move away; forget what was seen and try again next period.
-    planner_ = std::make_unique<PathPlanner>(*map_planner_);
+    planner_ = std::make_unique<navigation::PathPlanner>(*map_planner_);
   }
 }
 
@@ -398,7 +399,7 @@ double Navigate::safe_speed_mps(Context& ctx, const Pose2D& pose) const {
   const LaserScan* scan = ctx.blackboard().find(keys::kLaserScan);
   if (!scan) return max_speed_mps_;
   const Eigen::Isometry3d T_map_laser = isometry_from_pose2d(pose) * scan->T_base_laser;
-  const InflatedGrid& grid = map_planner_->grid();
+  const navigation::InflatedGrid& grid = map_planner_->grid();
   const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
   double speed_mps = max_speed_mps_;
   const double keep_m = grid.robot_radius_m() + kStopClearanceM;

@@ -77,10 +77,10 @@ class Navigate : public Behaviour {
   double reapproach_margin_px_, reapproach_max_extra_m_;
   std::optional<Outcome> early_;  // decided in start(): no stand-off to re-approach from
 
-  std::shared_ptr<const PathPlanner> map_planner_;  // the map as loaded
-  std::unique_ptr<PathPlanner> planner_;            // plus what the laser saw on this run
+  std::shared_ptr<const navigation::PathPlanner> map_planner_;  // the map as loaded
+  std::unique_ptr<navigation::PathPlanner> planner_;  // plus what the laser saw on this run
   Pose2D goal_;
-  PlannedPath path_;
+  navigation::PlannedPath path_;
   NavigateResult result_;
   std::size_t progress_index_ = 0;
   double start_s_ = 0.0;

@@ -31,7 +31,8 @@ std::optional<Outcome> Relocalize::tick(Context& ctx) {
   const PoseEstimate2D* estimate = ctx.blackboard().find(keys::kLocalization);
   const bool widened = !ctx.blackboard().has(keys::kLocalizationWiden);  // the service took it
   const bool* service_converged = ctx.blackboard().find(keys::kLocalizationConverged);
-  const bool converged = widened && estimate && position_std_m(*estimate) < converged_std_m_ &&
+  const bool converged = widened && estimate &&
+                         navigation::position_std_m(*estimate) < converged_std_m_ &&
                          service_converged != nullptr && *service_converged;
   if (!converged) {
     converged_since_s_ = -1.0;

@@ -44,7 +44,7 @@ light::BeamGuardSettings read_guard_settings(const Params& params) {
   return s;
 }
 
-std::string fmt_quad(const Quad2d& q) {
+std::string fmt_quad(const head::Quad2d& q) {
   std::ostringstream s;
   s.precision(1);
   s << std::fixed;
@@ -66,7 +66,7 @@ class Project : public Behaviour {
         beam_max_blocked_s_(params.number(param::kBeamMaxBlockedS)) {
     if (run.mission == nullptr) throw std::invalid_argument("project needs the mission's robot");
     // The undistortion maps depend only on the projector: computed once for the whole tour.
-    warper_ = std::make_unique<ContentWarper>(run.mission->robot.projector.intrinsics);
+    warper_ = std::make_unique<head::ContentWarper>(run.mission->robot.projector.intrinsics);
   }
 
   void start(Context& ctx) override {
@@ -80,8 +80,8 @@ class Project : public Behaviour {
     beam_clear_since_s_.reset();
     if (ctx.target == nullptr) throw std::runtime_error("project runs only inside a visit");
     // The calibration believed now: calibrate may have measured it on this very target.
-    kinematics_ = std::make_unique<HeadKinematics>(
-        believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration)));
+    kinematics_ = std::make_unique<head::HeadKinematics>(
+        head::believed_kinematics(ctx.robot(), ctx.blackboard().find(keys::kCalibration)));
     early_ = prepare(ctx);
     if (early_) return;
     if (track_.enabled) start_tracking(ctx);
@@ -208,22 +208,22 @@ class Project : public Behaviour {
     const Eigen::Isometry3d T_projector_camera = kinematics_->T_projector_camera(warp_q_);
 
     // Where the content would land from the guess alone: the report's "before alignment".
-    const ProjectedQuad before = project_model_points(
+    const head::ProjectedQuad before = head::project_model_points(
         target.model_points, T_projector_camera * aligned->T_camera_model_guess, projector);
     if (before.in_front) result_.pixels_before_align = before.pixels;
     shown_T_projector_model_ = T_projector_camera * T_camera_model;
-    const ProjectedQuad quad =
-        project_model_points(target.model_points, shown_T_projector_model_, projector);
+    const head::ProjectedQuad quad =
+        head::project_model_points(target.model_points, shown_T_projector_model_, projector);
     if (quad.in_front) result_.pixels_after_align = quad.pixels;
     publish(ctx);
     if (!quad.on_screen) return Outcome{outcome::kOffScreen, who + quad.problem};
 
-    const std::string degenerate = quad_problem(quad.ideal_pixels, min_area_px2_);
+    const std::string degenerate = head::quad_problem(quad.ideal_pixels, min_area_px2_);
     if (!degenerate.empty()) {
       return Outcome{kOutcomeFailed, who + "degenerate projection quadrilateral (" + degenerate +
                                          ") at pixels " + fmt_quad(quad.pixels)};
     }
-    const double residual_mm = planarity_residual_m(target.model_points) * 1e3;
+    const double residual_mm = head::planarity_residual_m(target.model_points) * 1e3;
     if (residual_mm > planarity_warn_mm_) {
       std::ostringstream s;
       s.precision(1);
@@ -327,7 +327,7 @@ class Project : public Behaviour {
                         ": the beam is not guarded");
       return;
     }
-    const ProjectedQuad quad = project_model_points(
+    const head::ProjectedQuad quad = head::project_model_points(
         ctx.target->model_points, shown_T_projector_model_, ctx.robot().projector.intrinsics);
     guard_.arm(kinematics_->T_projector_camera(warp_q_), ctx.robot().projector.intrinsics,
                quad.ideal_pixels, *aligned.model,
@@ -376,10 +376,10 @@ class Project : public Behaviour {
 
   void rewarp(Context& ctx, const Eigen::Isometry3d& T_projector_model) {
     const auto started = std::chrono::steady_clock::now();
-    const ProjectedQuad quad = project_model_points(ctx.target->model_points, T_projector_model,
-                                                    ctx.robot().projector.intrinsics);
+    const head::ProjectedQuad quad = head::project_model_points(
+        ctx.target->model_points, T_projector_model, ctx.robot().projector.intrinsics);
     const std::string problem =
-        quad.on_screen ? quad_problem(quad.ideal_pixels, min_area_px2_) : quad.problem;
+        quad.on_screen ? head::quad_problem(quad.ideal_pixels, min_area_px2_) : quad.problem;
     if (!problem.empty()) {
       // Keep the last good frame up: a partial quad would put content off the target.
       if (problem != rewarp_problem_) {
@@ -451,8 +451,8 @@ class Project : public Behaviour {
   JointAngles warp_q_;  // head angles the projector pose is computed from
   // The model in the projector frame the frame on show was warped with.
   Eigen::Isometry3d shown_T_projector_model_ = Eigen::Isometry3d::Identity();
-  std::unique_ptr<HeadKinematics> kinematics_;
-  std::unique_ptr<ContentWarper> warper_;
+  std::unique_ptr<head::HeadKinematics> kinematics_;
+  std::unique_ptr<head::ContentWarper> warper_;
   std::unique_ptr<ContentSource> content_;
   ProjectResult result_;
   std::optional<Outcome> early_;

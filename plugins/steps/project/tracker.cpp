@@ -25,7 +25,7 @@ TrackSettings read_track_settings(const Params& p) {
   return s;
 }
 
-QuadMotion model_points_motion(const Quad3d& model_points, const Eigen::Isometry3d& T_a_model,
+QuadMotion model_points_motion(const head::Quad3d& model_points, const Eigen::Isometry3d& T_a_model,
                                const Eigen::Isometry3d& T_b_model) {
   QuadMotion m;
   for (const Eigen::Vector3d& p : model_points) {
@@ -65,8 +65,8 @@ std::string TrackStats::summary() const {
   return s.str();
 }
 
-IcpOptions PoseTracker::icp_options() {
-  IcpOptions o;
+perception::IcpOptions PoseTracker::icp_options() {
+  perception::IcpOptions o;
   o.stages = {{2, 500, 1, 0.04, 4}, {1, 1000, 0, 0.02, 3}, {0, 3000, 0, 0.01, 3}};
   // A frame that fits badly is skipped, not searched around: the next one comes in 33 ms.
   o.retry_below_inlier_fraction = 0.0;
@@ -83,22 +83,22 @@ void PoseTracker::start(const std::shared_ptr<const ModelCloud>& model,
   // align fitted; it is rebuilt only when align publishes another model.
   if (model != cloud_) {
     cloud_ = model;
-    model_ = std::make_shared<const IcpModel>(*model);
+    model_ = std::make_shared<const perception::IcpModel>(*model);
   }
   T_camera_model_ = T_camera_model;
   stats_ = {};
 }
 
-bool PoseTracker::accepted(const RegistrationResult& r) const {
+bool PoseTracker::accepted(const perception::RegistrationResult& r) const {
   return r.converged && r.inlier_fraction >= settings_.min_inlier_fraction;
 }
 
-std::optional<RegistrationResult> PoseTracker::update(const DepthFrame& frame,
-                                                      const Eigen::Vector3d& depth_to_color_m) {
+std::optional<perception::RegistrationResult> PoseTracker::update(
+    const DepthFrame& frame, const Eigen::Vector3d& depth_to_color_m) {
   if (!model_) throw std::logic_error("PoseTracker::update before start");
   if (frame.valid_count() == 0) return std::nullopt;
-  RegistrationResult r = align_projective_icp(*model_, frame, depth_to_color_m, T_camera_model_,
-                                              settings_.crop_margin_m, options_);
+  perception::RegistrationResult r = perception::align_projective_icp(
+      *model_, frame, depth_to_color_m, T_camera_model_, settings_.crop_margin_m, options_);
   ++stats_.frames;
   stats_.align_ms.push_back(r.time_ms);
   if (accepted(r)) {

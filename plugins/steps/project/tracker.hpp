@@ -33,7 +33,7 @@ struct QuadMotion {
   double max_point_m = 0.0;
   double rotation_rad = 0.0;
 };
-QuadMotion model_points_motion(const Quad3d& model_points, const Eigen::Isometry3d& T_a_model,
+QuadMotion model_points_motion(const head::Quad3d& model_points, const Eigen::Isometry3d& T_a_model,
                                const Eigen::Isometry3d& T_b_model);
 
 // Per-visit figures for the log: how often tracking ran, kept up and re-warped.
@@ -63,9 +63,9 @@ class PoseTracker {
 
   // Aligns `frame` from the current pose; the pose moves only when the fit passes the gate.
   // nullopt for a frame without readings (a dropped frame).
-  std::optional<RegistrationResult> update(const DepthFrame& frame,
-                                           const Eigen::Vector3d& depth_to_color_m);
-  bool accepted(const RegistrationResult& r) const;
+  std::optional<perception::RegistrationResult> update(const DepthFrame& frame,
+                                                       const Eigen::Vector3d& depth_to_color_m);
+  bool accepted(const perception::RegistrationResult& r) const;
 
   const Eigen::Isometry3d& T_camera_model() const { return T_camera_model_; }
   TrackStats& stats() { return stats_; }
@@ -73,13 +73,13 @@ class PoseTracker {
   // The schedule: the three finer levels of align's default, trimmed (fewer iterations, fewer
   // points at full resolution) to stay near a millisecond. Between frames the target moves little,
   // but a bump can shift it by centimetres at once, so the first stage still reaches 4 cm.
-  static IcpOptions icp_options();
+  static perception::IcpOptions icp_options();
 
  private:
   TrackSettings settings_;
-  IcpOptions options_;
+  perception::IcpOptions options_;
   std::shared_ptr<const ModelCloud> cloud_;
-  std::shared_ptr<const IcpModel> model_;
+  std::shared_ptr<const perception::IcpModel> model_;
   Eigen::Isometry3d T_camera_model_ = Eigen::Isometry3d::Identity();
   TrackStats stats_;
 };

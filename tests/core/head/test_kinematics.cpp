@@ -10,7 +10,7 @@ using namespace projtour;
 namespace {
 
 // A head with a nonzero offset at every joint and mount, like a real Ubiquitous Display head.
-HeadKinematics offset_head(PanTiltSpec* spec_out = nullptr) {
+head::HeadKinematics offset_head(PanTiltSpec* spec_out = nullptr) {
   PanTiltSpec pt;
   pt.T_base_pan0 = isometry_from_xyz_rpy(0.05, -0.03, 1.20, 0.0, 0.0, deg_to_rad(4.0));
   pt.T_pan_tilt0 = isometry_from_xyz_rpy(0.04, 0.06, 0.15, 0.0, deg_to_rad(3.0), deg_to_rad(-2.0));
@@ -22,10 +22,10 @@ HeadKinematics offset_head(PanTiltSpec* spec_out = nullptr) {
   projector.T_link_body =
       isometry_from_xyz_rpy(0.12, -0.09, 0.07, deg_to_rad(1.5), deg_to_rad(-5.0), 0.0);
   if (spec_out != nullptr) *spec_out = pt;
-  return HeadKinematics(pt, camera, projector);
+  return head::HeadKinematics(pt, camera, projector);
 }
 
-double distance_to_optical_axis_m(const HeadKinematics& k, const JointAngles& q,
+double distance_to_optical_axis_m(const head::HeadKinematics& k, const JointAngles& q,
                                   const Eigen::Vector3d& p_base, double* along_m = nullptr) {
   const Eigen::Vector3d p = k.T_base_projector(q).inverse() * p_base;  // optical frame
   if (along_m != nullptr) *along_m = p.z();
@@ -38,7 +38,7 @@ TEST(Kinematics, TiltPositiveLooksDown) {
   PanTiltSpec pt;
   MountSpec m;
   m.link = Link::tilt;
-  const HeadKinematics k(pt, m, m);
+  const head::HeadKinematics k(pt, m, m);
   const Eigen::Vector3d forward =
       k.T_base_projector({0.0, deg_to_rad(30)}).linear() * Eigen::Vector3d::UnitZ();
   EXPECT_LT(forward.z(), -0.4);
@@ -48,7 +48,7 @@ TEST(Kinematics, TiltPositiveLooksDown) {
 }
 
 TEST(Kinematics, TiltEntersProjectorCameraTransformOnlyWhenLinksDiffer) {
-  const HeadKinematics k = offset_head();
+  const head::HeadKinematics k = offset_head();
   const Eigen::Isometry3d a = k.T_projector_camera({0.3, 0.0});
   const Eigen::Isometry3d b = k.T_projector_camera({-0.7, 0.0});
   const Eigen::Isometry3d c = k.T_projector_camera({0.3, 0.4});
@@ -61,7 +61,7 @@ TEST(Kinematics, TiltEntersProjectorCameraTransformOnlyWhenLinksDiffer) {
 
 TEST(Kinematics, InverseKinematicsPutsThousandRandomPointsOnTheOpticalAxis) {
   PanTiltSpec pt;
-  const HeadKinematics k = offset_head(&pt);
+  const head::HeadKinematics k = offset_head(&pt);
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> pan(deg_to_rad(pt.pan_min_deg) + 0.01,
                                              deg_to_rad(pt.pan_max_deg) - 0.01);
@@ -92,7 +92,7 @@ TEST(Kinematics, InverseKinematicsPutsThousandRandomPointsOnTheOpticalAxis) {
 
 TEST(Kinematics, InverseKinematicsBeatsTheNaiveDirection) {
   PanTiltSpec pt;
-  const HeadKinematics k = offset_head(&pt);
+  const head::HeadKinematics k = offset_head(&pt);
   const Eigen::Vector3d p(2.0, 0.5, 0.8);
   const auto q = k.aim_projector_at(p);
   ASSERT_TRUE(q);
@@ -104,7 +104,7 @@ TEST(Kinematics, InverseKinematicsBeatsTheNaiveDirection) {
 }
 
 TEST(Kinematics, OutOfReachPointsReportTheReason) {
-  const HeadKinematics k = offset_head();
+  const head::HeadKinematics k = offset_head();
   std::string why;
   // Straight up: tilt would be far below -30 deg.
   EXPECT_FALSE(k.aim_projector_at(Eigen::Vector3d(0.5, 0.0, 5.0), &why));
@@ -124,7 +124,7 @@ TEST(Kinematics, OutOfReachPointsReportTheReason) {
 }
 
 TEST(Kinematics, WithinLimits) {
-  const HeadKinematics k = offset_head();
+  const head::HeadKinematics k = offset_head();
   EXPECT_TRUE(k.within_limits({deg_to_rad(170), deg_to_rad(-30)}));
   EXPECT_FALSE(k.within_limits({deg_to_rad(171), 0.0}));
   EXPECT_FALSE(k.within_limits({0.0, deg_to_rad(61)}));

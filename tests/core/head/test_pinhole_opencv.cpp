@@ -20,8 +20,8 @@ namespace projtour {
 namespace {
 
 PinholeModel robot_projector() {
-  Diagnostics diag;
-  const auto robot = load_robot(PROJTOUR_SOURCE_DIR "/examples/robot/ud.yaml", diag);
+  host::Diagnostics diag;
+  const auto robot = host::load_robot(PROJTOUR_SOURCE_DIR "/examples/robot/ud.yaml", diag);
   if (!robot) throw std::runtime_error(diag.format());
   return robot->projector.intrinsics;
 }

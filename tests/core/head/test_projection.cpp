@@ -23,7 +23,7 @@ PinholeModel ud_projector(bool distorted) {
 }
 
 // A 0.40 x 0.25 m rectangle in the model's y-z plane (front = +x), seen obliquely from 1.2 m.
-Quad3d model_rectangle() {
+head::Quad3d model_rectangle() {
   return {Eigen::Vector3d(0.0, 0.20, 0.125), Eigen::Vector3d(0.0, -0.20, 0.125),
           Eigen::Vector3d(0.0, -0.20, -0.125), Eigen::Vector3d(0.0, 0.20, -0.125)};
 }
@@ -43,7 +43,7 @@ Eigen::Isometry3d T_projector_model_oblique() {
 }
 
 // Where the warped content's point `content_px` lands: Newton on the warp's own maps.
-Eigen::Vector2d landing_pixel(const ContentWarper& w, const Eigen::Vector2d& content_px,
+Eigen::Vector2d landing_pixel(const head::ContentWarper& w, const Eigen::Vector2d& content_px,
                               Eigen::Vector2d guess) {
   for (int i = 0; i < 8; ++i) {
     const Eigen::Vector2d c = w.content_at(guess);
@@ -62,14 +62,14 @@ Eigen::Vector2d landing_pixel(const ContentWarper& w, const Eigen::Vector2d& con
 // the corresponding points of the model rectangle project.
 double max_landing_error_px(bool distorted, double* corner_error_px) {
   const PinholeModel projector = ud_projector(distorted);
-  const Quad3d mp = model_rectangle();
+  const head::Quad3d mp = model_rectangle();
   const Eigen::Isometry3d T = T_projector_model_oblique();
-  const ProjectedQuad quad = project_model_points(mp, T, projector);
+  const head::ProjectedQuad quad = head::project_model_points(mp, T, projector);
   EXPECT_TRUE(quad.on_screen) << quad.problem;
   const cv::Size content_size(800, 500);
-  ContentWarper warper(projector);
+  head::ContentWarper warper(projector);
   warper.set_target(content_size, quad);
-  const Quad2d corners = content_corners(content_size);
+  const head::Quad2d corners = head::content_corners(content_size);
   double worst_corner = 0.0, worst = 0.0;
   for (int i = 0; i < 4; ++i) {
     const Eigen::Vector2d landed = landing_pixel(warper, corners[i], quad.pixels[i]);
@@ -116,15 +116,15 @@ TEST(Projection, DistortionMattersAtTheEdges) {
   // A plain homography on the distorted corner pixels misses the edge midpoints by pixels:
   // the test above is not passing by accident.
   const PinholeModel projector = ud_projector(true);
-  const Quad3d mp = model_rectangle();
+  const head::Quad3d mp = model_rectangle();
   const Eigen::Isometry3d T = T_projector_model_oblique();
-  const ProjectedQuad quad = project_model_points(mp, T, projector);
+  const head::ProjectedQuad quad = head::project_model_points(mp, T, projector);
   const cv::Size content_size(800, 500);
-  const cv::Matx33d H = homography(content_corners(content_size), quad.pixels);
+  const cv::Matx33d H = head::homography(head::content_corners(content_size), quad.pixels);
   double worst_px = 0.0;
   for (int i = 0; i < 4; ++i) {  // edge midpoints
-    const Eigen::Vector2d c =
-        0.5 * (content_corners(content_size)[i] + content_corners(content_size)[(i + 1) % 4]);
+    const Eigen::Vector2d c = 0.5 * (head::content_corners(content_size)[i] +
+                                     head::content_corners(content_size)[(i + 1) % 4]);
     const cv::Vec3d mid = H * cv::Vec3d(c.x(), c.y(), 1.0);
     const Eigen::Vector2d naive(mid[0] / mid[2], mid[1] / mid[2]);
     const Eigen::Vector2d truth = *projector.project(T * (0.5 * (mp[i] + mp[(i + 1) % 4])));
@@ -137,8 +137,8 @@ TEST(Projection, DistortionMattersAtTheEdges) {
 
 TEST(Projection, WarpedImageKeepsCornerOrderAndBlacksOutside) {
   const PinholeModel projector = ud_projector(true);
-  const ProjectedQuad quad =
-      project_model_points(model_rectangle(), T_projector_model_oblique(), projector);
+  const head::ProjectedQuad quad =
+      head::project_model_points(model_rectangle(), T_projector_model_oblique(), projector);
   // Quadrants of distinct colours: top-left red, top-right green, bottom-right blue,
   // bottom-left white.
   cv::Mat content(500, 800, CV_8UC3);
@@ -146,7 +146,7 @@ TEST(Projection, WarpedImageKeepsCornerOrderAndBlacksOutside) {
   content(cv::Rect(400, 0, 400, 250)).setTo(cv::Scalar(0, 255, 0));
   content(cv::Rect(400, 250, 400, 250)).setTo(cv::Scalar(255, 0, 0));
   content(cv::Rect(0, 250, 400, 250)).setTo(cv::Scalar(255, 255, 255));
-  ContentWarper warper(projector);
+  head::ContentWarper warper(projector);
   const auto t0 = std::chrono::steady_clock::now();
   warper.set_target(content.size(), quad);
   const cv::Mat frame = warper.warp(content);
@@ -174,11 +174,11 @@ void expect_reach_warp_is_whole_frame_warp(bool distorted) {
   const PinholeModel projector = ud_projector(distorted);
   Eigen::Isometry3d T = T_projector_model_oblique();
   T.translation().z() = 3.0;  // farther: the content covers a small part of the frame
-  const ProjectedQuad quad = project_model_points(model_rectangle(), T, projector);
+  const head::ProjectedQuad quad = head::project_model_points(model_rectangle(), T, projector);
   ASSERT_TRUE(quad.on_screen) << quad.problem;
   cv::Mat content(500, 800, CV_8UC3);
   cv::randu(content, cv::Scalar::all(0), cv::Scalar::all(256));
-  ContentWarper warper(projector);
+  head::ContentWarper warper(projector);
   warper.set_target(content.size(), quad);
   const cv::Mat frame = warper.warp(content);
   const cv::Rect reach = warper.reach();
@@ -232,15 +232,15 @@ TEST(Projection, WarpIntoTheKeptFrameAfterAMoveEqualsAFreshWarpAndSparesAHeldCop
   T.translation().z() = 3.0;
   cv::Mat content(500, 800, CV_8UC3);
   cv::randu(content, cv::Scalar::all(1), cv::Scalar::all(256));
-  ContentWarper warper(projector);
-  warper.set_target(content.size(), project_model_points(model_rectangle(), T, projector));
+  head::ContentWarper warper(projector);
+  warper.set_target(content.size(), head::project_model_points(model_rectangle(), T, projector));
   cv::Mat kept;
   warper.warp(content, kept);
   const uchar* buffer = kept.data;
   const cv::Mat before = kept.clone();
 
   T.translation().x() += 0.6;  // far enough that the two reaches do not overlap
-  const ProjectedQuad moved = project_model_points(model_rectangle(), T, projector);
+  const head::ProjectedQuad moved = head::project_model_points(model_rectangle(), T, projector);
   ASSERT_TRUE(moved.on_screen) << moved.problem;
   const cv::Rect old_reach = warper.reach();
   warper.set_target(content.size(), moved);
@@ -254,8 +254,8 @@ TEST(Projection, WarpIntoTheKeptFrameAfterAMoveEqualsAFreshWarpAndSparesAHeldCop
 
   const cv::Mat held = kept;  // shares the buffer
   const cv::Mat held_pixels = held.clone();
-  warper.set_target(content.size(), project_model_points(model_rectangle(),
-                                                         T_projector_model_oblique(), projector));
+  warper.set_target(content.size(), head::project_model_points(
+                                        model_rectangle(), T_projector_model_oblique(), projector));
   warper.warp(content, kept);
   EXPECT_NE(kept.data, held.data);
   cv::absdiff(held, held_pixels, diff);
@@ -267,37 +267,37 @@ TEST(Projection, OffScreenAndBehindAreReported) {
   const PinholeModel projector = ud_projector(false);
   Eigen::Isometry3d T = T_projector_model_oblique();
   T.translation().x() += 0.5;  // shifted right past the image edge
-  ProjectedQuad quad = project_model_points(model_rectangle(), T, projector);
+  head::ProjectedQuad quad = head::project_model_points(model_rectangle(), T, projector);
   EXPECT_TRUE(quad.in_front);
   EXPECT_FALSE(quad.on_screen);
   EXPECT_NE(quad.problem.find("outside the 1280x800"), std::string::npos) << quad.problem;
   T = T_projector_model_oblique();
   T.translation().z() = 0.05;  // straddles the projector's plane
-  quad = project_model_points(model_rectangle(), T, projector);
+  quad = head::project_model_points(model_rectangle(), T, projector);
   EXPECT_FALSE(quad.in_front);
   EXPECT_FALSE(quad.on_screen);
   EXPECT_NE(quad.problem.find("behind the projector"), std::string::npos) << quad.problem;
 }
 
 TEST(Projection, DegenerateQuadsAreNamed) {
-  const Quad2d good = {Eigen::Vector2d(100, 100), Eigen::Vector2d(300, 110),
-                       Eigen::Vector2d(290, 250), Eigen::Vector2d(105, 240)};
-  EXPECT_EQ(quad_problem(good), "");
-  const Quad2d collinear = {Eigen::Vector2d(100, 100), Eigen::Vector2d(200, 100),
-                            Eigen::Vector2d(300, 100), Eigen::Vector2d(400, 100)};
-  EXPECT_NE(quad_problem(collinear), "");
-  const Quad2d tiny = {Eigen::Vector2d(100, 100), Eigen::Vector2d(100.5, 100),
-                       Eigen::Vector2d(100.5, 100.5), Eigen::Vector2d(100, 100.5)};
-  EXPECT_NE(quad_problem(tiny).find("zero area"), std::string::npos);
-  const Quad2d bow_tie = {good[0], good[1], good[3], good[2]};
-  EXPECT_EQ(quad_problem(bow_tie), "self-crossing");
-  const Quad2d dented = {good[0], good[1], Eigen::Vector2d(200, 130), good[3]};
-  EXPECT_EQ(quad_problem(dented), "not convex");
+  const head::Quad2d good = {Eigen::Vector2d(100, 100), Eigen::Vector2d(300, 110),
+                             Eigen::Vector2d(290, 250), Eigen::Vector2d(105, 240)};
+  EXPECT_EQ(head::quad_problem(good), "");
+  const head::Quad2d collinear = {Eigen::Vector2d(100, 100), Eigen::Vector2d(200, 100),
+                                  Eigen::Vector2d(300, 100), Eigen::Vector2d(400, 100)};
+  EXPECT_NE(head::quad_problem(collinear), "");
+  const head::Quad2d tiny = {Eigen::Vector2d(100, 100), Eigen::Vector2d(100.5, 100),
+                             Eigen::Vector2d(100.5, 100.5), Eigen::Vector2d(100, 100.5)};
+  EXPECT_NE(head::quad_problem(tiny).find("zero area"), std::string::npos);
+  const head::Quad2d bow_tie = {good[0], good[1], good[3], good[2]};
+  EXPECT_EQ(head::quad_problem(bow_tie), "self-crossing");
+  const head::Quad2d dented = {good[0], good[1], Eigen::Vector2d(200, 130), good[3]};
+  EXPECT_EQ(head::quad_problem(dented), "not convex");
 }
 
 TEST(Projection, PlanarityResidual) {
-  Quad3d square = model_rectangle();
-  EXPECT_LT(planarity_residual_m(square), 1e-12);
+  head::Quad3d square = model_rectangle();
+  EXPECT_LT(head::planarity_residual_m(square), 1e-12);
   square[2].x() += 0.010;  // one corner 10 mm out of the plane: the best plane splits it in four
-  EXPECT_NEAR(planarity_residual_m(square), 0.0025, 1e-4);
+  EXPECT_NEAR(head::planarity_residual_m(square), 0.0025, 1e-4);
 }

@@ -10,10 +10,10 @@ std::filesystem::path fixture(const std::string& name) {
 }
 
 Params params_from_yaml(const std::vector<ParamSpec>& schema, const std::string& yaml,
-                        Diagnostics& diag) {
-  const auto node = load_yaml_string(yaml, "params.yaml", diag);
+                        host::Diagnostics& diag) {
+  const auto node = host::load_yaml_string(yaml, "params.yaml", diag);
   if (!node) return Params();
-  return read_params(schema, YamlField(*node, "params.yaml", diag));
+  return host::read_params(schema, host::YamlField(*node, "params.yaml", diag));
 }
 
 }  // namespace projtour::testing

@@ -25,6 +25,6 @@ struct TestRun : test::RunRig {
 
 // Params read from YAML text against a schema; diagnostics land in `diag`.
 Params params_from_yaml(const std::vector<ParamSpec>& schema, const std::string& yaml,
-                        Diagnostics& diag);
+                        host::Diagnostics& diag);
 
 }  // namespace projtour::testing

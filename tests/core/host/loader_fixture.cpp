@@ -70,7 +70,7 @@ std::string replace(std::string text, const std::string& from, const std::string
   return text;
 }
 
-std::vector<std::string> formatted(const Diagnostics& diag) {
+std::vector<std::string> formatted(const host::Diagnostics& diag) {
   std::vector<std::string> out;
   for (const auto& d : diag.items()) out.push_back(d.format());
   return out;
@@ -98,15 +98,15 @@ std::string LoaderTest::write(const std::string& name, const std::string& text) 
 }
 
 std::vector<std::string> LoaderTest::mission_errors(const std::string& text) const {
-  Diagnostics diag;
-  EXPECT_FALSE(load_mission(write("m.yaml", text), diag));
+  host::Diagnostics diag;
+  EXPECT_FALSE(host::load_mission(write("m.yaml", text), diag));
   EXPECT_TRUE(diag.has_errors());
   return formatted(diag);
 }
 
 std::vector<std::string> LoaderTest::robot_errors(const std::string& text) const {
-  Diagnostics diag;
-  EXPECT_FALSE(load_robot(write("r.yaml", text), diag));
+  host::Diagnostics diag;
+  EXPECT_FALSE(host::load_robot(write("r.yaml", text), diag));
   EXPECT_TRUE(diag.has_errors());
   return formatted(diag);
 }

@@ -22,7 +22,7 @@ extern const char* const kRobot;
 // `text` with the first occurrence of `from` replaced (which must occur).
 std::string replace(std::string text, const std::string& from, const std::string& to);
 // Every diagnostic, formatted, in order.
-std::vector<std::string> formatted(const Diagnostics& diag);
+std::vector<std::string> formatted(const host::Diagnostics& diag);
 
 class LoaderTest : public ::testing::Test {
  protected:

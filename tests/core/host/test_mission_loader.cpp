@@ -18,8 +18,8 @@ class MissionLoader : public LoaderTest {};
 // ---------------------------------------------------------------- good input
 
 TEST_F(MissionLoader, FixtureLoadsWithAllValues) {
-  Diagnostics diag;
-  const auto mission = load_mission(write("m.yaml", kMission), diag);
+  host::Diagnostics diag;
+  const auto mission = host::load_mission(write("m.yaml", kMission), diag);
   ASSERT_TRUE(mission) << diag.format();
   EXPECT_TRUE(diag.items().empty()) << diag.format();
   EXPECT_EQ(mission->name, "atrium-spring-sale");
@@ -57,12 +57,12 @@ TEST_F(MissionLoader, FixtureLoadsWithAllValues) {
 }
 
 TEST_F(MissionLoader, MarksPointAtEachField) {
-  Diagnostics diag;
-  const auto mission = load_mission(write("m.yaml", kMission), diag);
+  host::Diagnostics diag;
+  const auto mission = host::load_mission(write("m.yaml", kMission), diag);
   ASSERT_TRUE(mission) << diag.format();
   const std::string file = dir + "/m.yaml";
   auto at = [&](const std::string& field) {
-    const SourceMark m = mission->mark_of(field);
+    const host::SourceMark m = mission->mark_of(field);
     return m.file + ":" + std::to_string(m.line) + ":" + std::to_string(m.column);
   };
   EXPECT_EQ(at("mission"), file + ":1:10");
@@ -83,14 +83,14 @@ TEST_F(MissionLoader, MarksPointAtEachField) {
 }
 
 TEST_F(MissionLoader, ToleranceIsReadPerTarget) {
-  Diagnostics diag;
-  const auto mission = load_mission(
+  host::Diagnostics diag;
+  const auto mission = host::load_mission(
       write("m.yaml", replace(kMission, "dwell_s: 15", "dwell_s: 15\n    tolerance_mm: 2.5")),
       diag);
   ASSERT_TRUE(mission) << diag.format();
   EXPECT_DOUBLE_EQ(mission->targets[0].tolerance_mm, 2.5);
   EXPECT_DOUBLE_EQ(mission->targets[1].tolerance_mm, TargetSpec{}.tolerance_mm);
-  const SourceMark m = mission->mark_of("targets[0].tolerance_mm");
+  const host::SourceMark m = mission->mark_of("targets[0].tolerance_mm");
   EXPECT_EQ(m.line, 13);
   EXPECT_EQ(m.column, 19);
 }
@@ -108,8 +108,8 @@ TEST_F(MissionLoader, RelativePathsResolveAgainstTheFileThatNamesThem) {
   text = replace(text, "robot: robot.yaml", "robot: ../robots/ud.yaml");
   text = replace(text, "model: bunny.ply", "model: ../assets/models/bunny.ply");
   text = replace(text, "content: sale.png", "content: ../assets/sale.jpg");
-  Diagnostics diag;
-  const auto mission = load_mission(write("missions/m.yaml", text), diag);
+  host::Diagnostics diag;
+  const auto mission = host::load_mission(write("missions/m.yaml", text), diag);
   ASSERT_TRUE(mission) << diag.format();
   EXPECT_EQ(mission->map, dir_path / "maps/site.yaml");
   EXPECT_EQ(mission->robot_file, dir_path / "robots/ud.yaml");
@@ -121,9 +121,9 @@ TEST_F(MissionLoader, RelativePathsResolveAgainstTheFileThatNamesThem) {
 
 TEST_F(MissionLoader, VideoContentNeedsOnlyToExist) {
   write("clip.mp4", "not decoded at load time");
-  Diagnostics diag;
+  host::Diagnostics diag;
   const auto mission =
-      load_mission(write("m.yaml", replace(kMission, "sale.png", "clip.mp4")), diag);
+      host::load_mission(write("m.yaml", replace(kMission, "sale.png", "clip.mp4")), diag);
   ASSERT_TRUE(mission) << diag.format();
   EXPECT_EQ(mission->targets[0].content, dir_path / "clip.mp4");
 }
@@ -132,8 +132,8 @@ TEST_F(MissionLoader, InlineMachineIsKeptUninterpreted) {
   const std::string text =
       replace(kMission, "machine: default",
               "machine:\n  initial: go\n  states: {go: {behaviour: navigate}}");
-  Diagnostics diag;
-  const auto mission = load_mission(write("m.yaml", text), diag);
+  host::Diagnostics diag;
+  const auto mission = host::load_mission(write("m.yaml", text), diag);
   ASSERT_TRUE(mission) << diag.format();
   EXPECT_FALSE(mission->machine.is_default);
   EXPECT_EQ(mission->machine.file, dir + "/m.yaml");
@@ -144,8 +144,8 @@ TEST_F(MissionLoader, InlineMachineIsKeptUninterpreted) {
 
 TEST_F(MissionLoader, MachineFromFileResolvesRelativeToMission) {
   write("machines/short.yaml", "initial: go\nstates: {go: {behaviour: navigate}}\n");
-  Diagnostics diag;
-  const auto mission = load_mission(
+  host::Diagnostics diag;
+  const auto mission = host::load_mission(
       write("m.yaml", replace(kMission, "machine: default", "machine: machines/short.yaml")), diag);
   ASSERT_TRUE(mission) << diag.format();
   EXPECT_FALSE(mission->machine.is_default);
@@ -156,16 +156,16 @@ TEST_F(MissionLoader, MachineFromFileResolvesRelativeToMission) {
 
 TEST_F(MissionLoader, OrderNearestAndNoMachineKey) {
   std::string text = replace(kMission, "machine: default\n", "order: nearest\n");
-  Diagnostics diag;
-  const auto mission = load_mission(write("m.yaml", text), diag);
+  host::Diagnostics diag;
+  const auto mission = host::load_mission(write("m.yaml", text), diag);
   ASSERT_TRUE(mission) << diag.format();
   EXPECT_EQ(mission->order, "nearest");
   EXPECT_TRUE(mission->machine.is_default);
 }
 
 TEST_F(MissionLoader, FromStringAnchorsPathsOnTheGivenName) {
-  Diagnostics diag;
-  const auto mission = load_mission_from_string(kMission, dir_path / "virtual.yaml", diag);
+  host::Diagnostics diag;
+  const auto mission = host::load_mission_from_string(kMission, dir_path / "virtual.yaml", diag);
   ASSERT_TRUE(mission) << diag.format();
   EXPECT_EQ(mission->targets[0].model, dir_path / "bunny.ply");
   EXPECT_EQ(mission->file, dir_path / "virtual.yaml");
@@ -176,14 +176,14 @@ TEST_F(MissionLoader, OrThrowCarriesEveryDiagnostic) {
   text = replace(text, "dwell_s: 15", "dwell_s: 0");
   const std::string file = write("m.yaml", text);
   try {
-    load_mission_or_throw(file);
+    host::load_mission_or_throw(file);
     FAIL() << "no InputError";
-  } catch (const InputError& e) {
+  } catch (const host::InputError& e) {
     EXPECT_EQ(e.diagnostics().error_count(), 2u);
     EXPECT_THAT(e.what(), HasSubstr(file + ":8:45: targets[0].pose.yaw_deg:"));
     EXPECT_THAT(e.what(), HasSubstr(file + ":12:14: targets[0].dwell_s:"));
   }
-  EXPECT_EQ(load_mission_or_throw(write("good.yaml", kMission)).targets.size(), 2u);
+  EXPECT_EQ(host::load_mission_or_throw(write("good.yaml", kMission)).targets.size(), 2u);
 }
 
 // ---------------------------------------------------------------- wrong types
@@ -391,8 +391,8 @@ TEST_F(MissionLoader, MachineFileNotAMapping) {
 }
 
 TEST_F(MissionLoader, MissingMissionFile) {
-  Diagnostics diag;
-  EXPECT_FALSE(load_mission(dir_path / "nowhere.yaml", diag));
+  host::Diagnostics diag;
+  EXPECT_FALSE(host::load_mission(dir_path / "nowhere.yaml", diag));
   EXPECT_THAT(formatted(diag), ElementsAre(dir + "/nowhere.yaml: cannot open file"));
 }
 

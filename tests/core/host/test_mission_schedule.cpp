@@ -19,8 +19,8 @@ class MissionSchedule : public LoaderTest {
 };
 
 TEST_F(MissionSchedule, WithoutScheduleOnePassUnnumbered) {
-  Diagnostics diag;
-  const auto mission = load_mission(write("m.yaml", kMission), diag);
+  host::Diagnostics diag;
+  const auto mission = host::load_mission(write("m.yaml", kMission), diag);
   ASSERT_TRUE(mission) << diag.format();
   EXPECT_FALSE(mission->schedule.written);
   EXPECT_FALSE(mission->schedule.rounds);
@@ -35,8 +35,8 @@ TEST_F(MissionSchedule, WithoutScheduleOnePassUnnumbered) {
 
 TEST_F(MissionSchedule, AllFieldsLoad) {
   write("menu.mp4", "not decoded by the loader");
-  Diagnostics diag;
-  const auto mission = load_mission(
+  host::Diagnostics diag;
+  const auto mission = host::load_mission(
       write("m.yaml",
             with("schedule: {rounds: 3, start: \"09:30\", until: \"17:00:30\", pause_s: 600}",
                  "content: [sale.png, menu.mp4]\n    rotate: per_round\n"
@@ -49,7 +49,7 @@ TEST_F(MissionSchedule, AllFieldsLoad) {
   EXPECT_EQ(s.start_s, 9 * 3600 + 30 * 60);
   EXPECT_EQ(s.until_s, 17 * 3600 + 30);
   EXPECT_DOUBLE_EQ(s.pause_s, 600.0);
-  const TargetTimes& rabbit = mission->target_times[0];
+  const host::TargetTimes& rabbit = mission->target_times[0];
   EXPECT_EQ(rabbit.content,
             (std::vector<std::filesystem::path>{dir_path / "sale.png", dir_path / "menu.mp4"}));
   EXPECT_EQ(mission->targets[0].content, dir_path / "sale.png");  // the first item
@@ -62,8 +62,9 @@ TEST_F(MissionSchedule, AllFieldsLoad) {
 }
 
 TEST_F(MissionSchedule, UntilAloneDefaultsStartToNine) {
-  Diagnostics diag;
-  const auto mission = load_mission(write("m.yaml", with("schedule: {until: \"18:00\"}")), diag);
+  host::Diagnostics diag;
+  const auto mission =
+      host::load_mission(write("m.yaml", with("schedule: {until: \"18:00\"}")), diag);
   ASSERT_TRUE(mission) << diag.format();
   EXPECT_FALSE(mission->schedule.rounds);
   EXPECT_EQ(mission->schedule.start_s, 9 * 3600);

@@ -13,7 +13,7 @@ using projtour::testing::fixture;
 namespace {
 
 std::string listing_of(const std::vector<std::string>& fixtures) {
-  projtour::PluginRegistry registry;
+  projtour::host::PluginRegistry registry;
   for (const auto& name : fixtures) registry.load_library(fixture(name));
   std::ostringstream out;
   projtour::print_plugin_listing(registry, out);
@@ -117,7 +117,7 @@ TEST(PluginListing, WritableDirectoryFailsTheCommandUnlessAllowed) {
   std::ostringstream allowed_out;
   std::ostringstream allowed_err;
   EXPECT_EQ(projtour::run_plugins_command({dir.path()}, allowed_out, allowed_err,
-                                          projtour::PluginLoadOptions{true}),
+                                          projtour::host::PluginLoadOptions{true}),
             0)
       << allowed_err.str();
   EXPECT_NE(allowed_out.str().find("\nfixture_wait (behaviour)\n"), std::string::npos);

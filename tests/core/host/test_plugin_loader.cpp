@@ -15,23 +15,24 @@
 #include "projtour_test/scoped_state.hpp"
 
 namespace fs = std::filesystem;
-using projtour::Family;
-using projtour::KindInfo;
 using projtour::ParamType;
-using projtour::PluginError;
-using projtour::PluginLoadOptions;
-using projtour::PluginRegistry;
+using projtour::host::Family;
+using projtour::host::KindInfo;
+using projtour::host::PluginError;
+using projtour::host::PluginLoadOptions;
+using projtour::host::PluginRegistry;
 using projtour::testing::fixture;
 using projtour::testing::TempDir;
 using projtour::testing::TestRun;
+namespace host = projtour::host;
 
 namespace {
 
 // The message load_library throws for `file`, or "" when it loads.
-std::string load_error(PluginRegistry& registry, const fs::path& file) {
+std::string load_error(host::PluginRegistry& registry, const fs::path& file) {
   try {
     registry.load_library(file);
-  } catch (const PluginError& e) {
+  } catch (const host::PluginError& e) {
     return e.what();
   }
   return "";
@@ -44,8 +45,8 @@ bool is_loaded(const fs::path& file) {
   return true;
 }
 
-projtour::Params wait_params(const PluginRegistry& registry, const std::string& yaml) {
-  projtour::Diagnostics diag;
+projtour::Params wait_params(const host::PluginRegistry& registry, const std::string& yaml) {
+  projtour::host::Diagnostics diag;
   auto params =
       projtour::testing::params_from_yaml(registry.require("fixture_wait").params, yaml, diag);
   EXPECT_FALSE(diag.has_errors()) << diag.format();
@@ -56,7 +57,7 @@ using projtour::test::ScopedCurrentPath;
 using projtour::test::ScopedEnv;
 
 TEST(PluginLoader, GoodPluginRegistersEveryKind) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(fixture("pt_fixture_good"));
 
   const auto kinds = registry.kinds();
@@ -65,8 +66,8 @@ TEST(PluginLoader, GoodPluginRegistersEveryKind) {
   EXPECT_EQ(kinds[1]->name, "fixture_projector");
   EXPECT_EQ(kinds[2]->name, "fixture_wait");
 
-  const KindInfo& wait = registry.require("fixture_wait");
-  EXPECT_EQ(wait.family, Family::behaviour);
+  const host::KindInfo& wait = registry.require("fixture_wait");
+  EXPECT_EQ(wait.family, host::Family::behaviour);
   EXPECT_EQ(wait.interface, "");
   EXPECT_EQ(wait.description, "waits, then succeeds");
   EXPECT_EQ(wait.plugin_name, "fixture_good");
@@ -86,21 +87,21 @@ TEST(PluginLoader, GoodPluginRegistersEveryKind) {
   EXPECT_TRUE(wait.declares_outcome("timed_out"));
   EXPECT_FALSE(wait.declares_outcome("failed"));
 
-  EXPECT_EQ(registry.require("fixture_projector").family, Family::driver);
+  EXPECT_EQ(registry.require("fixture_projector").family, host::Family::driver);
   EXPECT_EQ(registry.require("fixture_projector").interface, "projector");
-  EXPECT_EQ(registry.require("fixture_locator").family, Family::service);
+  EXPECT_EQ(registry.require("fixture_locator").family, host::Family::service);
   EXPECT_EQ(registry.require("fixture_locator").interface, "localization");
 }
 
 TEST(PluginLoader, LoadingTheSameFileTwiceIsHarmless) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(fixture("pt_fixture_good"));
   EXPECT_NO_THROW(registry.load_library(fixture("pt_fixture_good")));
   EXPECT_EQ(registry.kinds().size(), 3u);
 }
 
 TEST(PluginLoader, MissingFileIsNamedWithErrno) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   const std::string error = load_error(registry, "/nonexistent/libnothing.so");
   EXPECT_EQ(error, "/nonexistent/libnothing.so: cannot open: No such file or directory");
 }
@@ -111,7 +112,7 @@ TEST(PluginLoader, SymlinkLoopIsReportedAsEloopNotAsMissing) {
   const fs::path file = dir / "libloop.so";
   fs::create_symlink(dir / "libloop_back.so", file);
   fs::create_symlink(file, dir / "libloop_back.so");
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   EXPECT_EQ(load_error(registry, file),
             file.string() + ": cannot open: Too many levels of symbolic links");
   EXPECT_EQ(registry.load_directories({dir.path()}),
@@ -125,7 +126,7 @@ TEST(PluginLoader, FileThatIsNotElfIsRefusedBeforeDlopen) {
   TempDir dir;
   const fs::path file = dir.path() / "libgarbage.so";
   std::ofstream(file) << std::string(512, 'x');
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   EXPECT_EQ(load_error(registry, file),
             file.string() + ": not an ELF shared object (no ELF header)");
   EXPECT_FALSE(projtour::test::mapped_in_this_process(file));
@@ -142,7 +143,7 @@ TEST(PluginLoader, ElfThatIsNotASharedObjectIsRefused) {
   header += std::string("\x01\x00", 2);
   header.resize(64, '\0');
   std::ofstream(file, std::ios::binary) << header;
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   EXPECT_EQ(load_error(registry, file),
             file.string() + ": not an ELF shared object (ELF type 1, a shared object is 3)");
 }
@@ -156,7 +157,7 @@ TEST(PluginLoader, TruncatedSharedObjectIsRefusedBeforeDlopen) {
   std::string head(4096, '\0');
   good.read(head.data(), static_cast<std::streamsize>(head.size()));
   std::ofstream(file, std::ios::binary) << head;
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   const std::string error = load_error(registry, file);
   EXPECT_EQ(error.rfind(file.string() + ": truncated ELF shared object (segment ", 0), 0u) << error;
   EXPECT_NE(error.find(", the file has 4096)"), std::string::npos) << error;
@@ -176,7 +177,7 @@ TEST(PluginLoader, UnloadableSharedObjectCarriesDlerror) {
   header += std::string("\x03\x00", 2);
   header.resize(512, '\0');
   std::ofstream(file, std::ios::binary) << header;
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   const std::string error = load_error(registry, file);
   EXPECT_EQ(error.rfind(file.string() + ": cannot load: ", 0), 0u) << error;
   // dlerror's own words follow: the reason the dynamic linker refused it.
@@ -184,7 +185,7 @@ TEST(PluginLoader, UnloadableSharedObjectCarriesDlerror) {
 }
 
 TEST(PluginLoader, SharedObjectWithoutEntryPointIsNotAPlugin) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   const fs::path file = fixture("pt_fixture_not_plugin");
   EXPECT_EQ(load_error(registry, file),
             file.string() + ": not a projtour plugin (no projtour_plugin_descriptor)");
@@ -193,7 +194,7 @@ TEST(PluginLoader, SharedObjectWithoutEntryPointIsNotAPlugin) {
 
 TEST(PluginLoader, AbiVersionIsCheckedBeforeAnythingElse) {
   // The fixture's other fields are null: reading them first would report a malformed plugin.
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   const fs::path file = fixture("pt_fixture_abi999");
   EXPECT_EQ(load_error(registry, file), file.string() + ": ABI version 999, this projtour needs " +
                                             std::to_string(PROJTOUR_ABI_VERSION));
@@ -208,7 +209,7 @@ class MalformedDescriptor : public ::testing::TestWithParam<MalformedCase> {};
 
 TEST_P(MalformedDescriptor, IsRefusedWithTheReason) {
   const fs::path file = fixture("pt_fixture_malformed_" + std::to_string(GetParam().number));
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   EXPECT_EQ(load_error(registry, file), file.string() + ": " + GetParam().reason);
   EXPECT_EQ(registry.find("fixture_malformed"), nullptr);
   EXPECT_TRUE(registry.kinds().empty());
@@ -236,7 +237,7 @@ INSTANTIATE_TEST_SUITE_P(
                       "read, 2 read if present or 3 write)"}));
 
 TEST(PluginLoader, DuplicateKindNamesBothFiles) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   const fs::path a = fixture("pt_fixture_dup_a");
   const fs::path b = fixture("pt_fixture_dup_b");
   registry.load_library(a);
@@ -247,7 +248,7 @@ TEST(PluginLoader, DuplicateKindNamesBothFiles) {
 }
 
 TEST(PluginLoader, LoadDirectoriesCollectsEveryFailureInFileOrder) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   const auto failures =
       registry.load_directories({PROJTOUR_FIXTURE_DIR, "/nonexistent/projtour/plugins"});
   const std::string dir = PROJTOUR_FIXTURE_DIR;
@@ -263,7 +264,7 @@ TEST(PluginLoader, LoadDirectoriesCollectsEveryFailureInFileOrder) {
   EXPECT_EQ(failed_files, expected);
 
   std::vector<std::string> names;
-  for (const KindInfo* kind : registry.kinds()) names.push_back(kind->name);
+  for (const host::KindInfo* kind : registry.kinds()) names.push_back(kind->name);
   EXPECT_EQ(names, (std::vector<std::string>{"fixture_create_throws", "fixture_dup", "fixture_liar",
                                              "fixture_locator", "fixture_projector",
                                              "fixture_tick_throws", "fixture_wait"}));
@@ -276,26 +277,26 @@ TEST(PluginLoader, EarlierDirectoryShadowsSameFileName) {
   for (const auto* dir : {&first, &second}) {
     fs::copy_file(fixture("pt_fixture_good"), dir->path() / "libpt_fixture_good.so");
   }
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   EXPECT_TRUE(registry.load_directories({first.path(), second.path()}).empty());
   EXPECT_EQ(registry.require("fixture_wait").library.parent_path(), fs::canonical(first.path()));
 }
 
 TEST(PluginLoader, RequireSuggestsTheClosestKind) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(fixture("pt_fixture_good"));
   try {
     registry.require("fixture_wiat");
     FAIL() << "no throw";
-  } catch (const PluginError& e) {
+  } catch (const host::PluginError& e) {
     EXPECT_STREQ(e.what(), "unknown plugin kind \"fixture_wiat\" (did you mean \"fixture_wait\"?)");
   }
-  EXPECT_THROW(registry.require("navigate"), PluginError);
+  EXPECT_THROW(registry.require("navigate"), host::PluginError);
   EXPECT_EQ(registry.find("navigate"), nullptr);
 }
 
 TEST(PluginLoader, BehaviourRunsOnMissionTime) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(fixture("pt_fixture_good"));
   const auto params = wait_params(registry, "{gain: 1.0, duration_s: 2.0}");
   TestRun run;
@@ -325,7 +326,7 @@ TEST(PluginLoader, LibraryStaysMappedWhileAnObjectLivesAndAfter) {
   std::shared_ptr<projtour::Behaviour> behaviour;
   projtour::Params params;
   {
-    auto registry = std::make_unique<PluginRegistry>();
+    auto registry = std::make_unique<host::PluginRegistry>();
     registry->load_library(file);
     EXPECT_TRUE(projtour::test::mapped_in_this_process(file));
     params = wait_params(*registry, "{gain: 1.0, duration_s: 0.0, fail_on_timeout: true}");
@@ -347,13 +348,13 @@ TEST(PluginLoader, LibraryStaysMappedWhileAnObjectLivesAndAfter) {
 }
 
 TEST(PluginLoader, CreateThatThrowsNamesKindLibraryAndReason) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(fixture("pt_fixture_throwing"));
   TestRun run;
   try {
     registry.create_behaviour("fixture_create_throws", projtour::Params(), run.run);
     FAIL() << "no throw";
-  } catch (const PluginError& e) {
+  } catch (const host::PluginError& e) {
     EXPECT_EQ(std::string(e.what()),
               fs::canonical(fixture("pt_fixture_throwing")).string() +
                   ": kind \"fixture_create_throws\": create failed: calibration file missing");
@@ -361,9 +362,10 @@ TEST(PluginLoader, CreateThatThrowsNamesKindLibraryAndReason) {
 }
 
 TEST(PluginLoader, TickThatThrowsReachesTheCaller) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(fixture("pt_fixture_throwing"));
-  const auto params = projtour::default_params(registry.require("fixture_tick_throws").params);
+  const auto params =
+      projtour::host::default_params(registry.require("fixture_tick_throws").params);
   TestRun run;
   auto behaviour = registry.create_behaviour("fixture_tick_throws", params, run.run);
   auto ctx = run.context(params);
@@ -381,32 +383,32 @@ TEST(PluginLoader, TickThatThrowsReachesTheCaller) {
 }
 
 TEST(PluginLoader, FamilyMismatchIsRefused) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(fixture("pt_fixture_good"));
   TestRun run;
   const std::string library = fs::canonical(fixture("pt_fixture_good")).string();
   try {
     registry.create_driver("fixture_wait", projtour::Params(), run.run);
     FAIL() << "no throw";
-  } catch (const PluginError& e) {
+  } catch (const host::PluginError& e) {
     EXPECT_EQ(std::string(e.what()),
               library + ": kind \"fixture_wait\": is a behaviour, not a driver");
   }
   EXPECT_THROW(registry.create_behaviour("fixture_projector", projtour::Params(), run.run),
-               PluginError);
+               host::PluginError);
   EXPECT_THROW(registry.create_service("fixture_projector", projtour::Params(), run.run),
-               PluginError);
+               host::PluginError);
 }
 
 TEST(PluginLoader, DriverMustImplementItsDeclaredInterface) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(fixture("pt_fixture_liar"));
   TestRun run;
-  const auto params = projtour::default_params(registry.require("fixture_liar").params);
+  const auto params = projtour::host::default_params(registry.require("fixture_liar").params);
   try {
     registry.create_driver("fixture_liar", params, run.run);
     FAIL() << "no throw";
-  } catch (const PluginError& e) {
+  } catch (const host::PluginError& e) {
     EXPECT_NE(std::string(e.what()).find("kind \"fixture_liar\": declares interface \"base\" but "
                                          "its object does not implement it"),
               std::string::npos)
@@ -415,10 +417,10 @@ TEST(PluginLoader, DriverMustImplementItsDeclaredInterface) {
 }
 
 TEST(PluginLoader, DriverDowncastsToItsInterface) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(fixture("pt_fixture_good"));
   TestRun run;
-  const auto params = projtour::default_params(registry.require("fixture_projector").params);
+  const auto params = projtour::host::default_params(registry.require("fixture_projector").params);
   auto driver = registry.create_driver("fixture_projector", params, run.run);
   auto projector = std::dynamic_pointer_cast<projtour::ProjectorDriver>(driver);
   ASSERT_NE(projector, nullptr);
@@ -427,10 +429,10 @@ TEST(PluginLoader, DriverDowncastsToItsInterface) {
 }
 
 TEST(PluginLoader, ServiceIsCreatedAndUpdated) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(fixture("pt_fixture_good"));
   TestRun run;
-  const auto params = projtour::default_params(registry.require("fixture_locator").params);
+  const auto params = projtour::host::default_params(registry.require("fixture_locator").params);
   auto service = registry.create_service("fixture_locator", params, run.run);
   ASSERT_NE(service, nullptr);
   auto ctx = run.context(params);
@@ -439,7 +441,7 @@ TEST(PluginLoader, ServiceIsCreatedAndUpdated) {
 }
 
 TEST(PluginLoader, KindValidatorRunsOnValues) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(fixture("pt_fixture_good"));
   EXPECT_EQ(registry.validate_params("fixture_wait", wait_params(registry, "{gain: 1}")), "");
   EXPECT_EQ(
@@ -454,7 +456,7 @@ TEST(PluginLoader, KindValidatorRunsOnValues) {
 // was compiled in (plugins_install_template checks an installed host never names the tree).
 TEST(PluginSearchPath, CliThenEnvironmentThenBesideTheHostLibrary) {
   ScopedEnv env("PROJTOUR_PLUGIN_PATH", "/env/a::/env/b:");
-  const auto dirs = PluginRegistry::search_path({"/cli/x", "/cli/y/"});
+  const auto dirs = host::PluginRegistry::search_path({"/cli/x", "/cli/y/"});
   EXPECT_EQ(dirs, (std::vector<fs::path>{"/cli/x", "/cli/y/", "/env/a", "/env/b",
                                          fs::path(PROJTOUR_PLUGIN_BUILD_DIR)}));
   for (const auto& dir : dirs) {
@@ -467,11 +469,11 @@ TEST(PluginSearchPath, CurrentDirectoryIsNeverImplied) {
   TempDir cwd;
   fs::copy_file(fixture("pt_fixture_good"), cwd.path() / "libpt_fixture_good.so");
   std::vector<fs::path> dirs;
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   {
     ScopedCurrentPath in_cwd(cwd.path());
     ScopedEnv env("PROJTOUR_PLUGIN_PATH", ":");
-    dirs = PluginRegistry::search_path({});
+    dirs = host::PluginRegistry::search_path({});
     registry.load_directories(dirs);
   }
   for (const auto& dir : dirs) EXPECT_TRUE(dir.is_absolute()) << dir;
@@ -481,10 +483,10 @@ TEST(PluginSearchPath, CurrentDirectoryIsNeverImplied) {
 TEST(PluginSearchPath, NamedCurrentDirectoryIsSearched) {
   TempDir cwd;
   fs::copy_file(fixture("pt_fixture_good"), cwd.path() / "libpt_fixture_good.so");
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   {
     ScopedCurrentPath in_cwd(cwd.path());
-    registry.load_directories(PluginRegistry::search_path({"."}));
+    registry.load_directories(host::PluginRegistry::search_path({"."}));
   }
   EXPECT_NE(registry.find("fixture_wait"), nullptr);
 }
@@ -512,7 +514,7 @@ TEST(PluginTrust, GroupWritableDirectoryIsRefusedNamingItsMode) {
   TempDir dir;
   copy_with_mode("pt_fixture_good", dir.path(), "libpt_fixture_good.so", kOwnerOnly);
   fs::permissions(dir.path(), kOwnerOnly | fs::perms::group_write);
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   EXPECT_EQ(
       registry.load_directories({dir.path()}),
       (std::vector<std::string>{dir.path().string() +
@@ -526,7 +528,7 @@ TEST(PluginTrust, WorldWritableLibraryIsRefusedNamingItsMode) {
                                        kOwnerOnly | fs::perms::others_write);
   const std::string refusal =
       file.string() + ": plugin library is world-writable (mode 0757)" + kTrustRule;
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   EXPECT_EQ(load_error(registry, file), refusal);
   EXPECT_EQ(registry.load_directories({dir.path()}), (std::vector<std::string>{refusal}));
   EXPECT_TRUE(registry.kinds().empty());
@@ -542,7 +544,7 @@ TEST(PluginTrust, WritableDirectoryAboveIsRefusedUnlessSticky) {
   fs::permissions(dir, kOwnerOnly);
   copy_with_mode("pt_fixture_good", dir, "libpt_fixture_good.so", kOwnerOnly);
   fs::permissions(above.path(), fs::perms::all);
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   EXPECT_EQ(registry.load_directories({dir}),
             (std::vector<std::string>{dir.string() + ": plugin directory is under " +
                                       above.path().string() +
@@ -562,7 +564,7 @@ TEST(PluginTrust, SymlinkIntoAWritableDirectoryIsRefused) {
       copy_with_mode("pt_fixture_good", open.path(), "libpt_fixture_good.so", kOwnerOnly);
   fs::permissions(open.path(), kOwnerOnly | fs::perms::others_write);
   fs::create_symlink(real, trusted / "libpt_fixture_good.so");
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   EXPECT_EQ(load_error(registry, trusted / "libpt_fixture_good.so"),
             (trusted / "libpt_fixture_good.so").string() + ": its directory " +
                 open.path().string() + " is world-writable (mode 0757)" + kTrustRule);
@@ -575,7 +577,7 @@ TEST(PluginTrust, LibraryOfAnotherUserIsRefused) {
   const fs::path file =
       copy_with_mode("pt_fixture_good", dir.path(), "libpt_fixture_other_user.so", kOwnerOnly);
   ASSERT_EQ(::chown(file.c_str(), 4242, 4242), 0);
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   EXPECT_EQ(load_error(registry, file),
             file.string() +
                 ": plugin library is owned by uid 4242 (mode 0755), neither root nor this user "
@@ -588,9 +590,9 @@ TEST(PluginTrust, AllowOptionAdmitsWritablePaths) {
   const fs::path file =
       copy_with_mode("pt_fixture_good", dir.path(), "libpt_fixture_allowed.so", fs::perms::all);
   fs::permissions(dir.path(), fs::perms::all);
-  PluginRegistry strict;
+  host::PluginRegistry strict;
   EXPECT_EQ(strict.load_directories({dir.path()}).size(), 1u);
-  PluginRegistry allowing(PluginLoadOptions{true});
+  host::PluginRegistry allowing(host::PluginLoadOptions{true});
   EXPECT_TRUE(allowing.load_directories({dir.path()}).empty());
   EXPECT_EQ(allowing.require("fixture_wait").library, fs::canonical(file));
 }
@@ -606,7 +608,7 @@ TEST(PluginTrust, RefusedLibraryNeverRunsItsConstructor) {
   copy_with_mode("pt_fixture_constructor", open_dir.path(), "libpt_fixture_constructor.so",
                  kOwnerOnly);
   fs::permissions(open_dir.path(), fs::perms::all);
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   EXPECT_EQ(registry.load_directories({open_dir.path()}).size(), 1u);
   EXPECT_FALSE(fs::exists(marker));
 
@@ -619,7 +621,7 @@ TEST(PluginTrust, RefusedLibraryNeverRunsItsConstructor) {
   EXPECT_FALSE(fs::exists(marker));
   EXPECT_FALSE(projtour::test::mapped_in_this_process(open_file));
 
-  PluginRegistry allowing(PluginLoadOptions{true});
+  host::PluginRegistry allowing(host::PluginLoadOptions{true});
   EXPECT_EQ(load_error(allowing, open_file),
             open_file.string() + ": not a projtour plugin (no projtour_plugin_descriptor)");
   EXPECT_TRUE(fs::exists(marker));
@@ -633,7 +635,7 @@ TEST(PluginTrust, BrokenLibraryDoesNotHideAGoodOneFurtherDown) {
   fs::create_symlink(second / "libpt_fixture_good.so", second / "libpt_fixture_good.so");
   const fs::path good =
       copy_with_mode("pt_fixture_good", third.path(), "libpt_fixture_good.so", kOwnerOnly);
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   EXPECT_TRUE(registry.load_directories({first.path(), second.path(), third.path()}).empty());
   EXPECT_EQ(registry.require("fixture_wait").library, fs::canonical(good));
   const std::string instead = " (" + good.string() + " further down the path was loaded instead)";
@@ -649,7 +651,7 @@ TEST(PluginTrust, BrokenLibraryWithNoGoodOneIsTheError) {
   TempDir first("first");
   TempDir second("second");
   std::ofstream(first / "libpt_fixture_good.so") << std::string(512, 'x');
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   EXPECT_EQ(registry.load_directories({first.path(), second.path()}),
             (std::vector<std::string>{(first / "libpt_fixture_good.so").string() +
                                       ": not an ELF shared object (no ELF header)"}));

@@ -7,9 +7,10 @@
 
 namespace {
 
-using projtour::Diagnostics;
+using projtour::host::Diagnostics;
 using projtour::testing::fixture;
 using projtour::testing::params_from_yaml;
+namespace host = projtour::host;
 
 class KindParams : public ::testing::Test {
  protected:
@@ -17,11 +18,11 @@ class KindParams : public ::testing::Test {
   const std::vector<projtour::ParamSpec>& schema() const {
     return registry_.require("fixture_wait").params;
   }
-  projtour::PluginRegistry registry_;
+  projtour::host::PluginRegistry registry_;
 };
 
 TEST_F(KindParams, DefaultsFillWhatTheMissionLeavesOut) {
-  Diagnostics diag;
+  host::Diagnostics diag;
   const auto params = params_from_yaml(schema(), "gain: 4\nlabel: sale\n", diag);
   ASSERT_FALSE(diag.has_errors()) << diag.format();
   EXPECT_DOUBLE_EQ(params.number("gain"), 4.0);
@@ -33,7 +34,7 @@ TEST_F(KindParams, DefaultsFillWhatTheMissionLeavesOut) {
 }
 
 TEST_F(KindParams, WrongTypeIsReportedWithItsPlace) {
-  Diagnostics diag;
+  host::Diagnostics diag;
   params_from_yaml(schema(), "gain: 1\nrepeats: many\n", diag);
   ASSERT_EQ(diag.error_count(), 1u) << diag.format();
   EXPECT_EQ(diag.items()[0].format(),
@@ -41,7 +42,7 @@ TEST_F(KindParams, WrongTypeIsReportedWithItsPlace) {
 }
 
 TEST_F(KindParams, UnknownParameterSuggestsTheDeclaredOne) {
-  Diagnostics diag;
+  host::Diagnostics diag;
   params_from_yaml(schema(), "gain: 1\nduraton_s: 3\n", diag);
   ASSERT_EQ(diag.error_count(), 1u) << diag.format();
   EXPECT_EQ(diag.items()[0].format(),
@@ -49,7 +50,7 @@ TEST_F(KindParams, UnknownParameterSuggestsTheDeclaredOne) {
 }
 
 TEST_F(KindParams, RequiredParameterWithoutDefaultMustBeGiven) {
-  Diagnostics diag;
+  host::Diagnostics diag;
   params_from_yaml(schema(), "{duration_s: 1}", diag);
   ASSERT_EQ(diag.error_count(), 1u) << diag.format();
   EXPECT_EQ(diag.items()[0].field_path, "gain");
@@ -57,8 +58,8 @@ TEST_F(KindParams, RequiredParameterWithoutDefaultMustBeGiven) {
 }
 
 TEST_F(KindParams, DefaultsAloneNeedEveryRequiredValue) {
-  EXPECT_THROW(projtour::default_params(schema()), std::invalid_argument);
-  const auto params = projtour::default_params(registry_.require("fixture_projector").params);
+  EXPECT_THROW(projtour::host::default_params(schema()), std::invalid_argument);
+  const auto params = projtour::host::default_params(registry_.require("fixture_projector").params);
   EXPECT_EQ(params.integer("width_px"), 1024);
   EXPECT_EQ(params.integer("height_px"), 768);
 }

@@ -32,8 +32,8 @@ struct BadValue {
 // ---------------------------------------------------------------- good input
 
 TEST_F(RobotLoader, ShippedUbiquitousDisplayLoads) {
-  Diagnostics diag;
-  const auto robot = load_robot(PROJTOUR_SOURCE_DIR "/examples/robot/ud.yaml", diag);
+  host::Diagnostics diag;
+  const auto robot = host::load_robot(PROJTOUR_SOURCE_DIR "/examples/robot/ud.yaml", diag);
   ASSERT_TRUE(robot) << diag.format();
   EXPECT_TRUE(diag.items().empty()) << diag.format();
   EXPECT_EQ(robot->name, "ubiquitous-display");
@@ -91,8 +91,8 @@ TEST_F(RobotLoader, DocumentedStructuredLightIsTheDefaults) {
     text += line + "\n";
   }
   ASSERT_TRUE(found) << "ud.yaml lacks its commented structured_light section";
-  Diagnostics diag;
-  const auto robot = load_robot(write("ud.yaml", text), diag);
+  host::Diagnostics diag;
+  const auto robot = host::load_robot(write("ud.yaml", text), diag);
   ASSERT_TRUE(robot) << diag.format();
   const StructuredLightSpec defaults;
   const StructuredLightSpec& light = robot->structured_light;
@@ -104,8 +104,8 @@ TEST_F(RobotLoader, DocumentedStructuredLightIsTheDefaults) {
 }
 
 TEST_F(RobotLoader, PitchTurnsTheCameraNoseDown) {
-  Diagnostics diag;
-  const auto robot = load_robot(dir_path / "robot.yaml", diag);
+  host::Diagnostics diag;
+  const auto robot = host::load_robot(dir_path / "robot.yaml", diag);
   ASSERT_TRUE(robot) << diag.format();
   // Body x (the optical axis) after pitch 20 about y: forward and 20 degrees below horizontal.
   const Eigen::Vector3d axis = robot->camera.mount.T_link_body.linear() * Eigen::Vector3d::UnitX();
@@ -116,8 +116,8 @@ TEST_F(RobotLoader, PitchTurnsTheCameraNoseDown) {
 }
 
 TEST_F(RobotLoader, OptionalFieldsTakeDefaults) {
-  Diagnostics diag;
-  const auto robot = load_robot(dir_path / "robot.yaml", diag);
+  host::Diagnostics diag;
+  const auto robot = host::load_robot(dir_path / "robot.yaml", diag);
   ASSERT_TRUE(robot) << diag.format();
   const RobotSpec defaults;
   EXPECT_DOUBLE_EQ(robot->base.max_speed_mps, defaults.base.max_speed_mps);
@@ -150,17 +150,18 @@ TEST_F(RobotLoader, OptionalFieldsTakeDefaults) {
 }
 
 TEST_F(RobotLoader, ColourCameraValuesAreRead) {
-  Diagnostics diag;
-  const auto robot = load_robot(write("r.yaml", with_colour("    width: 1280\n"
-                                                            "    height: 1024\n"
-                                                            "    fx: 1050\n"
-                                                            "    fy: 1051\n"
-                                                            "    cx: 639.5\n"
-                                                            "    cy: 511.5\n"
-                                                            "    distortion: [0.1, -0.2, 0.001, "
-                                                            "0.002, 0.3]\n"
-                                                            "    rate_hz: 15\n")),
-                                diag);
+  host::Diagnostics diag;
+  const auto robot =
+      host::load_robot(write("r.yaml", with_colour("    width: 1280\n"
+                                                   "    height: 1024\n"
+                                                   "    fx: 1050\n"
+                                                   "    fy: 1051\n"
+                                                   "    cx: 639.5\n"
+                                                   "    cy: 511.5\n"
+                                                   "    distortion: [0.1, -0.2, 0.001, "
+                                                   "0.002, 0.3]\n"
+                                                   "    rate_hz: 15\n")),
+                       diag);
   ASSERT_TRUE(robot) << diag.format();
   const PinholeModel& k = robot->camera.colour.intrinsics;
   EXPECT_EQ(k.width, 1280);
@@ -178,9 +179,9 @@ TEST_F(RobotLoader, ColourCameraValuesAreRead) {
 
 // Each field of camera.colour is optional on its own: the others keep the Kinect's values.
 TEST_F(RobotLoader, ColourCameraFieldsDefaultOneByOne) {
-  Diagnostics diag;
+  host::Diagnostics diag;
   const auto robot =
-      load_robot(write("r.yaml", with_colour("    fx: 530\n    rate_hz: 25\n")), diag);
+      host::load_robot(write("r.yaml", with_colour("    fx: 530\n    rate_hz: 25\n")), diag);
   ASSERT_TRUE(robot) << diag.format();
   const ColourCameraSpec defaults;
   const PinholeModel& k = robot->camera.colour.intrinsics;
@@ -193,13 +194,14 @@ TEST_F(RobotLoader, ColourCameraFieldsDefaultOneByOne) {
 }
 
 TEST_F(RobotLoader, StructuredLightValuesAreRead) {
-  Diagnostics diag;
-  const auto robot = load_robot(write("r.yaml", with_structured_light("  block_px: 8\n"
-                                                                      "  hold_s: 0.1\n"
-                                                                      "  exposure_ms: 0\n"
-                                                                      "  min_correspondences: 12\n"
-                                                                      "  max_residual_px: 2.5\n")),
-                                diag);
+  host::Diagnostics diag;
+  const auto robot =
+      host::load_robot(write("r.yaml", with_structured_light("  block_px: 8\n"
+                                                             "  hold_s: 0.1\n"
+                                                             "  exposure_ms: 0\n"
+                                                             "  min_correspondences: 12\n"
+                                                             "  max_residual_px: 2.5\n")),
+                       diag);
   ASSERT_TRUE(robot) << diag.format();
   const StructuredLightSpec& light = robot->structured_light;
   EXPECT_EQ(light.block_px, 8);
@@ -212,11 +214,11 @@ TEST_F(RobotLoader, StructuredLightValuesAreRead) {
 // A driver written without params used to get a default-constructed YAML::Node, which is Null
 // (as if "params: ~" had been written), not Undefined as PluginInstanceSpec documents.
 TEST_F(RobotLoader, Regression_AbsentDriverParamsAreUndefinedNotNull) {
-  Diagnostics diag;
-  const auto robot =
-      load_robot(write("r.yaml", replace(kRobot, ", params: {port: /dev/ttyUSB0}", "")), diag);
+  host::Diagnostics diag;
+  const auto robot = host::load_robot(
+      write("r.yaml", replace(kRobot, ", params: {port: /dev/ttyUSB0}", "")), diag);
   ASSERT_TRUE(robot) << diag.format();
-  const PluginInstanceSpec& pan_tilt = robot->drivers.at("pan_tilt");
+  const host::PluginInstanceSpec& pan_tilt = robot->drivers.at("pan_tilt");
   EXPECT_EQ(pan_tilt.kind, "ptu_dperception");
   EXPECT_FALSE(pan_tilt.params.IsDefined());
   EXPECT_EQ(pan_tilt.params_path, "drivers.pan_tilt.params");
@@ -405,8 +407,8 @@ class RobotLoaderRos2 : public RobotLoader {
 TEST_F(RobotLoaderRos2, AbsentSectionIsRos2sDefaults) {
   ::unsetenv("ROS_DOMAIN_ID");
   ::unsetenv("ROS_LOCALHOST_ONLY");
-  Diagnostics diag;
-  const auto robot = load_robot(dir_path / "robot.yaml", diag);
+  host::Diagnostics diag;
+  const auto robot = host::load_robot(dir_path / "robot.yaml", diag);
   ASSERT_TRUE(robot) << diag.format();
   const Ros2Spec& r = robot->ros2;
   EXPECT_FALSE(r.present);
@@ -426,14 +428,14 @@ TEST_F(RobotLoaderRos2, AbsentSectionIsRos2sDefaults) {
 TEST_F(RobotLoaderRos2, EnvironmentIsTheDefaultAndTheFileWins) {
   ::setenv("ROS_DOMAIN_ID", "42", 1);
   ::setenv("ROS_LOCALHOST_ONLY", "1", 1);
-  Diagnostics diag;
-  auto robot = load_robot(write("r.yaml", with("ros2:\n  namespace: /ud1\n")), diag);
+  host::Diagnostics diag;
+  auto robot = host::load_robot(write("r.yaml", with("ros2:\n  namespace: /ud1\n")), diag);
   ASSERT_TRUE(robot) << diag.format();
   EXPECT_TRUE(robot->ros2.present);
   EXPECT_EQ(robot->ros2.domain_id, 42);
   EXPECT_TRUE(robot->ros2.loopback_only);
-  robot =
-      load_robot(write("r.yaml", with("ros2:\n  domain_id: 7\n  loopback_only: false\n")), diag);
+  robot = host::load_robot(write("r.yaml", with("ros2:\n  domain_id: 7\n  loopback_only: false\n")),
+                           diag);
   ASSERT_TRUE(robot) << diag.format();
   EXPECT_EQ(robot->ros2.domain_id, 7);
   EXPECT_FALSE(robot->ros2.loopback_only);
@@ -448,8 +450,8 @@ TEST_F(RobotLoaderRos2, EnvironmentIsTheDefaultAndTheFileWins) {
 TEST_F(RobotLoaderRos2, EveryFieldIsRead) {
   ::unsetenv("ROS_DOMAIN_ID");
   ::unsetenv("ROS_LOCALHOST_ONLY");
-  Diagnostics diag;
-  const auto robot = load_robot(
+  host::Diagnostics diag;
+  const auto robot = host::load_robot(
       write("r.yaml",
             with("ros2:\n"
                  "  domain_id: 12\n"

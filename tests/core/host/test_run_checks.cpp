@@ -57,8 +57,8 @@ class RunChecks : public LoaderTest {
 
   // Check problems of the mission `text` (which must load).
   std::vector<std::string> problems(const std::string& text) const {
-    Diagnostics diag;
-    const auto mission = load_mission(write("m.yaml", text), diag);
+    host::Diagnostics diag;
+    const auto mission = host::load_mission(write("m.yaml", text), diag);
     EXPECT_TRUE(mission) << diag.format();
     if (!mission) return {};
     check_run_assets(*mission, diag);

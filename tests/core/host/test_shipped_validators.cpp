@@ -28,13 +28,13 @@ class ShippedValidator : public ::testing::TestWithParam<BadValue> {
                            (std::string("libprojtour_") + GetParam().library + ".so"));
   }
   std::string validate(const std::string& yaml) {
-    projtour::Diagnostics diag;
+    projtour::host::Diagnostics diag;
     const auto params =
         projtour::testing::params_from_yaml(registry_.require(GetParam().kind).params, yaml, diag);
     EXPECT_FALSE(diag.has_errors()) << diag.format();
     return registry_.validate_params(GetParam().kind, params);
   }
-  projtour::PluginRegistry registry_;
+  projtour::host::PluginRegistry registry_;
 };
 
 TEST_P(ShippedValidator, PassesTheDefaultsAndNamesTheBadValue) {

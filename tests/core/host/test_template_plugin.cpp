@@ -22,22 +22,23 @@ TEST(TemplatePlugin, InstalledCoreFindsItInItsPluginDirectory) {
   const fs::path prefix = env_path("PROJTOUR_INSTALL_PREFIX");
   // The core in this process is the installed one (else the test proves nothing).
   Dl_info info{};
-  ASSERT_NE(dladdr(reinterpret_cast<void*>(&projtour::PluginRegistry::search_path), &info), 0);
+  ASSERT_NE(dladdr(reinterpret_cast<void*>(&projtour::host::PluginRegistry::search_path), &info),
+            0);
   const fs::path core = fs::canonical(info.dli_fname);
   ASSERT_EQ(core.string().rfind(prefix.string(), 0), 0u) << core;
 
-  projtour::PluginRegistry registry;
-  registry.load_directories(projtour::PluginRegistry::search_path({}));
-  const projtour::KindInfo* hello = registry.find("hello");
+  projtour::host::PluginRegistry registry;
+  registry.load_directories(projtour::host::PluginRegistry::search_path({}));
+  const projtour::host::KindInfo* hello = registry.find("hello");
   ASSERT_NE(hello, nullptr);
   EXPECT_EQ(hello->library, env_path("PROJTOUR_TEMPLATE_PLUGIN"));
 }
 
 TEST(TemplatePlugin, DeclaresItsKindAndWaitsOnMissionTime) {
-  projtour::PluginRegistry registry;
+  projtour::host::PluginRegistry registry;
   registry.load_library(env_path("PROJTOUR_TEMPLATE_PLUGIN"));
-  const projtour::KindInfo& hello = registry.require("hello");
-  EXPECT_EQ(hello.family, projtour::Family::behaviour);
+  const projtour::host::KindInfo& hello = registry.require("hello");
+  EXPECT_EQ(hello.family, projtour::host::Family::behaviour);
   EXPECT_EQ(hello.plugin_name, "hello");
   EXPECT_EQ(hello.plugin_version, "1.0.0");
   ASSERT_EQ(hello.params.size(), 2u);
@@ -46,7 +47,7 @@ TEST(TemplatePlugin, DeclaresItsKindAndWaitsOnMissionTime) {
   EXPECT_EQ(hello.params[0].default_value, "1.0");
   EXPECT_EQ(hello.outcomes, std::vector<std::string>{"succeeded"});
 
-  projtour::Diagnostics diag;
+  projtour::host::Diagnostics diag;
   const auto params = projtour::testing::params_from_yaml(hello.params, "{duration_s: 3}", diag);
   ASSERT_FALSE(diag.has_errors()) << diag.format();
   EXPECT_EQ(registry.validate_params("hello", params), "");

@@ -28,15 +28,15 @@ class WorldLoader : public LoaderTest {
  protected:
   void SetUp() override {
     LoaderTest::SetUp();
-    Diagnostics diag;
-    auto loaded = load_mission(write("m.yaml", kMission), diag);
+    host::Diagnostics diag;
+    auto loaded = host::load_mission(write("m.yaml", kMission), diag);
     ASSERT_TRUE(loaded) << diag.format();
     mission = std::move(*loaded);
   }
 
   std::vector<std::string> world_errors(const std::string& text) const {
-    Diagnostics diag;
-    EXPECT_FALSE(load_world(write("w.yaml", text), mission, diag));
+    host::Diagnostics diag;
+    EXPECT_FALSE(host::load_world(write("w.yaml", text), mission, diag));
     EXPECT_TRUE(diag.has_errors());
     return formatted(diag);
   }
@@ -45,8 +45,8 @@ class WorldLoader : public LoaderTest {
 };
 
 TEST_F(WorldLoader, AllValues) {
-  Diagnostics diag;
-  const auto world = load_world(write("w.yaml", kWorld), mission, diag);
+  host::Diagnostics diag;
+  const auto world = host::load_world(write("w.yaml", kWorld), mission, diag);
   ASSERT_TRUE(world) << diag.format();
   EXPECT_EQ(world->file, dir_path / "w.yaml");
   EXPECT_EQ(world->seed, 7u);
@@ -75,10 +75,10 @@ TEST_F(WorldLoader, AllValues) {
 }
 
 TEST_F(WorldLoader, EmptyFileIsTheDefaultWorld) {
-  Diagnostics diag;
-  const auto world = load_world(write("w.yaml", "# defaults\n"), mission, diag);
+  host::Diagnostics diag;
+  const auto world = host::load_world(write("w.yaml", "# defaults\n"), mission, diag);
   ASSERT_TRUE(world) << diag.format();
-  const WorldSpec defaults;
+  const host::WorldSpec defaults;
   EXPECT_FALSE(world->seed);
   EXPECT_TRUE(world->T_map_model_true.empty());
   EXPECT_DOUBLE_EQ(world->odometry_trans_noise_frac, defaults.odometry_trans_noise_frac);
@@ -87,27 +87,27 @@ TEST_F(WorldLoader, EmptyFileIsTheDefaultWorld) {
 }
 
 TEST_F(WorldLoader, ShippedExampleLoadsAgainstAMissionWithItsTarget) {
-  Diagnostics diag;
+  host::Diagnostics diag;
   const auto world =
-      load_world(PROJTOUR_SOURCE_DIR "/examples/worlds/atrium_faults.yaml", mission, diag);
+      host::load_world(PROJTOUR_SOURCE_DIR "/examples/worlds/atrium_faults.yaml", mission, diag);
   ASSERT_TRUE(world) << diag.format();
   EXPECT_EQ(world->seed, 7u);
   EXPECT_EQ(world->faults.size(), 3u);
 }
 
 TEST_F(WorldLoader, TheBuildingSections) {
-  Diagnostics diag;
+  host::Diagnostics diag;
   const auto world =
-      load_world(PROJTOUR_SOURCE_DIR "/examples/worlds/busy_building.yaml", mission, diag);
+      host::load_world(PROJTOUR_SOURCE_DIR "/examples/worlds/busy_building.yaml", mission, diag);
   ASSERT_TRUE(world) << diag.format();
   EXPECT_DOUBLE_EQ(world->encoder_bias_pan_deg, 0.2);
   EXPECT_DOUBLE_EQ(world->encoder_bias_tilt_deg, -0.1);
   EXPECT_TRUE(world->depth_artefacts);
   ASSERT_EQ(world->objects.size(), 2u);
-  EXPECT_EQ(world->objects[0].shape, WorldObjectSpec::Shape::box);
+  EXPECT_EQ(world->objects[0].shape, host::WorldObjectSpec::Shape::box);
   EXPECT_DOUBLE_EQ(world->objects[0].size_y_m, 0.4);
   EXPECT_NEAR(world->objects[0].pose.yaw_rad, deg_to_rad(20.0), 1e-12);
-  EXPECT_EQ(world->objects[1].shape, WorldObjectSpec::Shape::cylinder);
+  EXPECT_EQ(world->objects[1].shape, host::WorldObjectSpec::Shape::cylinder);
   EXPECT_DOUBLE_EQ(world->objects[1].size_x_m, 0.4);
   EXPECT_DOUBLE_EQ(world->clutter.per_m, 0.05);
   EXPECT_DOUBLE_EQ(world->clutter.max_height_m, 1.2);
@@ -187,10 +187,10 @@ std::string with_pole(const std::string& numbers) {
 }
 
 TEST_F(WorldLoader, PoleFault) {
-  Diagnostics diag;
-  const auto world =
-      load_world(write("w.yaml", with_pole("distance_m: 0.6, diameter_m: 0.05, offset_m: -0.2")),
-                 mission, diag);
+  host::Diagnostics diag;
+  const auto world = host::load_world(
+      write("w.yaml", with_pole("distance_m: 0.6, diameter_m: 0.05, offset_m: -0.2")), mission,
+      diag);
   ASSERT_TRUE(world) << diag.format();
   ASSERT_EQ(world->faults.size(), 3u);
   EXPECT_EQ(world->faults[2].type, "pole");
@@ -198,8 +198,8 @@ TEST_F(WorldLoader, PoleFault) {
             (std::map<std::string, double>{
                 {"distance_m", 0.6}, {"diameter_m", 0.05}, {"offset_m", -0.2}}));
   // Every number is optional.
-  EXPECT_TRUE(load_world(write("w.yaml", replace(with_pole("offset_m: 0"), ", offset_m: 0", "")),
-                         mission, diag))
+  EXPECT_TRUE(host::load_world(
+      write("w.yaml", replace(with_pole("offset_m: 0"), ", offset_m: 0", "")), mission, diag))
       << diag.format();
 }
 
@@ -282,37 +282,39 @@ TEST_F(WorldLoader, TruePoseUnknownKeySuggests) {
 // default loads as written (the defaults are within the loader's bounds), and fault_number gives
 // the same default when the number is left out, as the simulator reads it.
 TEST_F(WorldLoader, FaultTableDefaultsLoadAsWrittenAndAsLeftOut) {
-  ASSERT_EQ(fault_kinds().size(), 12u);
-  for (const FaultKindSpec& kind : fault_kinds()) {
+  ASSERT_EQ(host::fault_kinds().size(), 12u);
+  for (const host::FaultKindSpec& kind : host::fault_kinds()) {
     std::ostringstream text;
     text.precision(17);
     text << "faults:\n  - {target: rabbit, type: " << kind.type;
-    for (const FaultNumberSpec& n : kind.numbers) text << ", " << n.key << ": " << n.default_value;
+    for (const host::FaultNumberSpec& n : kind.numbers)
+      text << ", " << n.key << ": " << n.default_value;
     text << "}\n";
-    Diagnostics diag;
-    const auto world = load_world(write("w.yaml", text.str()), mission, diag);
+    host::Diagnostics diag;
+    const auto world = host::load_world(write("w.yaml", text.str()), mission, diag);
     ASSERT_TRUE(world) << kind.type << ": " << diag.format();
     ASSERT_EQ(world->faults.size(), 1u);
-    const FaultSpec& written = world->faults[0];
+    const host::FaultSpec& written = world->faults[0];
     EXPECT_EQ(written.type, kind.type);
     EXPECT_EQ(written.values.size(), kind.numbers.size()) << kind.type;
-    FaultSpec left_out;
+    host::FaultSpec left_out;
     left_out.type = kind.type;
-    for (const FaultNumberSpec& n : kind.numbers) {
+    for (const host::FaultNumberSpec& n : kind.numbers) {
       EXPECT_EQ(written.values.at(n.key), n.default_value) << kind.type << "." << n.key;
-      EXPECT_EQ(fault_number(left_out, n.key), n.default_value) << kind.type << "." << n.key;
-      EXPECT_EQ(fault_default(kind.type, n.key), n.default_value) << kind.type << "." << n.key;
+      EXPECT_EQ(host::fault_number(left_out, n.key), n.default_value) << kind.type << "." << n.key;
+      EXPECT_EQ(host::fault_default(kind.type, n.key), n.default_value)
+          << kind.type << "." << n.key;
     }
   }
 }
 
 // A number the table does not have is the simulator's mistake, never silently a default.
 TEST_F(WorldLoader, FaultTableRefusesANumberItDoesNotHave) {
-  EXPECT_THROW(fault_default("person_standing", "speed_mps"), std::logic_error);
-  EXPECT_THROW(fault_default("no_such_fault", "after_s"), std::logic_error);
-  EXPECT_EQ(find_fault_kind("no_such_fault"), nullptr);
-  ASSERT_NE(find_fault_kind("pole"), nullptr);
-  EXPECT_EQ(find_fault_kind("pole")->numbers.size(), 3u);
+  EXPECT_THROW(host::fault_default("person_standing", "speed_mps"), std::logic_error);
+  EXPECT_THROW(host::fault_default("no_such_fault", "after_s"), std::logic_error);
+  EXPECT_EQ(host::find_fault_kind("no_such_fault"), nullptr);
+  ASSERT_NE(host::find_fault_kind("pole"), nullptr);
+  EXPECT_EQ(host::find_fault_kind("pole")->numbers.size(), 3u);
 }
 
 }  // namespace

@@ -18,9 +18,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    const auto source = projtour::load_occupancy_grid(argv[1]);
+    const auto source = projtour::navigation::load_occupancy_grid(argv[1]);
     const auto cropped = projtour::demo_map::crop_and_classify(*source);
-    projtour::save_occupancy_grid_yaml(cropped, argv[2]);
+    projtour::navigation::save_occupancy_grid_yaml(cropped, argv[2]);
     std::cout << "wrote " << argv[2] << ": " << cropped.getSizeX() << " x " << cropped.getSizeY()
               << " cells of " << cropped.getResolution() << " m\n";
   } catch (const std::exception& e) {

@@ -61,7 +61,7 @@ std::filesystem::path run_localize(unsigned seed, const std::string& init = kSta
 // Share of each scan's endpoints (from the pose the trajectory gives for it) that lie on a wall
 // of the map: within 0.2 m of both a free cell and a cell that is not free.
 std::vector<double> wall_fit(const std::vector<TumPose>& trajectory) {
-  const auto map = load_occupancy_grid(kMap);
+  const auto map = navigation::load_occupancy_grid(kMap);
   const double res = map->getResolution();
   const int reach = static_cast<int>(std::ceil(0.2 / res));
   auto on_wall = [&](double x, double y) {
@@ -71,7 +71,7 @@ std::vector<double> wall_fit(const std::vector<TumPose>& trajectory) {
       for (int dx = -reach; dx <= reach; ++dx) {
         if (dx * dx + dy * dy > reach * reach) continue;
         const float v = map->getCell(cx + dx, cy + dy);
-        (v > kFreeCellThreshold ? free : other) = true;
+        (v > navigation::kFreeCellThreshold ? free : other) = true;
       }
     }
     return free && other;
@@ -85,7 +85,7 @@ std::vector<double> wall_fit(const std::vector<TumPose>& trajectory) {
         rawlog.getAsObservations(i)->getObservationByClass<mrpt::obs::CObservation2DRangeScan>();
     if (!scan) continue;
     const Pose2D pose = trajectory.at(out.size()).pose;
-    const Pose2D sensor = pose_compose(
+    const Pose2D sensor = navigation::pose_compose(
         pose, Pose2D{scan->sensorPose.x(), scan->sensorPose.y(), scan->sensorPose.yaw()});
     std::size_t fitting = 0, valid = 0;
     const std::size_t n = scan->getScanSize();
@@ -94,7 +94,8 @@ std::vector<double> wall_fit(const std::vector<TumPose>& trajectory) {
       const double a =
           (scan->rightToLeft ? 1.0 : -1.0) * (-0.5 * scan->aperture + k * scan->aperture / (n - 1));
       const double r = scan->getScanRange(k);
-      const Pose2D end = pose_compose(sensor, Pose2D{r * std::cos(a), r * std::sin(a), 0.0});
+      const Pose2D end =
+          navigation::pose_compose(sensor, Pose2D{r * std::cos(a), r * std::sin(a), 0.0});
       ++valid;
       if (on_wall(end.x_m, end.y_m)) ++fitting;
     }

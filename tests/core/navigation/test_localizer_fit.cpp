@@ -44,7 +44,7 @@ TEST_P(FitAtResolution, AStillRobotThatFitsTheRoomIsConverged) {
   const mrpt::maps::COccupancyGridMap2D map = room(GetParam());
   const Pose2D truth{2.0, 2.5, 0.3};
   const mrpt::obs::CObservation2DRangeScan scan = scan_from(map, truth);
-  Localizer localizer(map, LocalizerOptions{}, 3);
+  navigation::Localizer localizer(map, navigation::LocalizerOptions{}, 3);
   localizer.reset(truth);
   for (int i = 0; i < 20; ++i) localizer.update(Pose2D{0, 0, 0}, scan);
   const PoseEstimate2D e = localizer.estimate();
@@ -56,7 +56,7 @@ TEST_P(FitAtResolution, AStillRobotThatFitsTheRoomIsConverged) {
 INSTANTIATE_TEST_SUITE_P(Resolutions, FitAtResolution,
                          ::testing::Values(0.02, 0.05, 0.1, 0.2, 0.25));
 
-double position_error_m(const Localizer& localizer, const Pose2D& truth) {
+double position_error_m(const navigation::Localizer& localizer, const Pose2D& truth) {
   const Pose2D m = localizer.estimate().mean;
   return std::hypot(m.x_m - truth.x_m, m.y_m - truth.y_m);
 }
@@ -70,7 +70,7 @@ TEST(ShortReadings, APersonInFrontOfTheLaserIsLeftOut) {
   auto with_person = clear;
   const std::size_t middle = clear.getScanSize() / 2;
   for (std::size_t i = middle - 40; i <= middle + 40; ++i) with_person.setScanRange(i, 0.8f);
-  Localizer localizer(map, LocalizerOptions{}, 5);
+  navigation::Localizer localizer(map, navigation::LocalizerOptions{}, 5);
   localizer.reset(truth);
   for (int i = 0; i < 15; ++i) localizer.update(Pose2D{}, clear);
   ASSERT_TRUE(localizer.converged());
@@ -87,10 +87,10 @@ TEST(ShortReadings, APersonInFrontOfTheLaserIsLeftOut) {
 // Before it converges nothing is left out: the estimate is not yet the robot's.
 TEST(ShortReadings, NothingIsLeftOutBeforeConvergence) {
   const mrpt::maps::COccupancyGridMap2D map = room(0.05);
-  LocalizerOptions options;
+  navigation::LocalizerOptions options;
   options.init_spread_m = 2.0;
   options.init_spread_deg = 90.0;
-  Localizer localizer(map, options, 5);
+  navigation::Localizer localizer(map, options, 5);
   localizer.reset(Pose2D{5.0, 3.0, 0.0});
   ASSERT_FALSE(localizer.converged());
   localizer.update(Pose2D{}, scan_from(map, Pose2D{2.0, 2.5, 0.0}));
@@ -104,16 +104,16 @@ TEST(DepletionGuard, ACarriedRobotIsFoundAgainQuickly) {
   const mrpt::maps::COccupancyGridMap2D map = room(0.05);
   const Pose2D before{7.0, 4.0, 0.2}, after{8.0, 3.2, -0.1};
   auto run = [&](double inject_max_frac) {
-    LocalizerOptions options;
+    navigation::LocalizerOptions options;
     options.inject_max_frac = inject_max_frac;
-    auto localizer = std::make_unique<Localizer>(map, options, 2);
+    auto localizer = std::make_unique<navigation::Localizer>(map, options, 2);
     localizer->reset(before);
     for (int i = 0; i < 15; ++i) localizer->update(Pose2D{}, scan_from(map, before));
     EXPECT_LT(position_error_m(*localizer, before), 0.05);
     for (int i = 0; i < 15; ++i) localizer->update(Pose2D{}, scan_from(map, after));
     return localizer;
   };
-  const auto guarded = run(LocalizerOptions{}.inject_max_frac);
+  const auto guarded = run(navigation::LocalizerOptions{}.inject_max_frac);
   EXPECT_LT(position_error_m(*guarded, after), 0.05);
   EXPECT_GT(guarded->injected_particles(), 0u);
   EXPECT_TRUE(guarded->converged());
@@ -126,7 +126,7 @@ TEST(DepletionGuard, ACarriedRobotIsFoundAgainQuickly) {
 TEST(DepletionGuard, QuietWhileTheScansFit) {
   const mrpt::maps::COccupancyGridMap2D map = room(0.1);
   const Pose2D truth{7.0, 4.0, -1.0};
-  Localizer localizer(map, LocalizerOptions{}, 2);
+  navigation::Localizer localizer(map, navigation::LocalizerOptions{}, 2);
   localizer.reset(truth);
   for (int i = 0; i < 60; ++i) localizer.update(Pose2D{}, scan_from(map, truth));
   EXPECT_EQ(localizer.injected_particles(), 0u);

@@ -11,7 +11,7 @@
 #include "projtour/navigation/path_planner.hpp"
 #include "projtour/tour/runner.hpp"
 #include "projtour_test/temp_dir.hpp"
-#include "test_maps.hpp"
+#include "projtour_test/test_maps.hpp"
 
 namespace projtour {
 namespace {
@@ -38,7 +38,7 @@ TEST(OccupancyGrid, LoadsRosMapServerYamlWithPgm) {
     yaml << "image: tiny.pgm\nresolution: 0.5\norigin: [-1.0, 2.0, 0.0]\nnegate: 0\n"
             "occupied_thresh: 0.65\nfree_thresh: 0.196\n";
   }
-  const auto map = load_occupancy_grid(dir / "tiny.yaml");
+  const auto map = navigation::load_occupancy_grid(dir / "tiny.yaml");
   ASSERT_EQ(map->getSizeX(), 4u);
   ASSERT_EQ(map->getSizeY(), 2u);
   EXPECT_FLOAT_EQ(map->getXMin(), -1.0f);
@@ -52,7 +52,7 @@ TEST(OccupancyGrid, LoadsRosMapServerYamlWithPgm) {
 }
 
 TEST(OccupancyGrid, LoadsMrptGridmapGz) {
-  const auto map = load_occupancy_grid(kMalagaSource);
+  const auto map = navigation::load_occupancy_grid(kMalagaSource);
   EXPECT_EQ(map->getSizeX(), 1888u);
   EXPECT_EQ(map->getSizeY(), 2738u);
   EXPECT_FLOAT_EQ(map->getResolution(), 0.08f);
@@ -60,7 +60,7 @@ TEST(OccupancyGrid, LoadsMrptGridmapGz) {
 
 TEST(OccupancyGrid, ErrorsNameTheFile) {
   try {
-    load_occupancy_grid("/nonexistent/atrium.yaml");
+    navigation::load_occupancy_grid("/nonexistent/atrium.yaml");
     FAIL() << "expected a throw";
   } catch (const std::runtime_error& e) {
     EXPECT_STREQ(e.what(), "/nonexistent/atrium.yaml: no such map file");
@@ -68,7 +68,7 @@ TEST(OccupancyGrid, ErrorsNameTheFile) {
   const fs::path dir = temp_dir("bad");
   std::ofstream(dir / "bad.yaml") << "image: missing.png\nresolution: fine\norigin: [0, 0, 0]\n";
   try {
-    load_occupancy_grid(dir / "bad.yaml");
+    navigation::load_occupancy_grid(dir / "bad.yaml");
     FAIL() << "expected a throw";
   } catch (const std::runtime_error& e) {
     EXPECT_EQ(std::string(e.what()),
@@ -82,7 +82,7 @@ std::string map_error(const std::string& name, const std::string& yaml) {
   std::ofstream(dir / "tiny.pgm", std::ios::binary) << "P5\n2 2\n255\n" << std::string(4, '\xff');
   std::ofstream(dir / "map.yaml") << yaml;
   try {
-    load_occupancy_grid(dir / "map.yaml");
+    navigation::load_occupancy_grid(dir / "map.yaml");
   } catch (const std::runtime_error& e) {
     const std::string what = e.what();
     const std::string prefix = (dir / "map.yaml").string();
@@ -122,7 +122,7 @@ TEST(OccupancyGrid, ImageAboveTheCellBoundRefused) {
   ASSERT_TRUE(cv::imwrite((dir / "huge.png").string(), cv::Mat(10000, 10001, CV_8UC1, 255)));
   std::ofstream(dir / "map.yaml") << "image: huge.png\nresolution: 0.05\norigin: [0, 0, 0]\n";
   try {
-    load_occupancy_grid(dir / "map.yaml");
+    navigation::load_occupancy_grid(dir / "map.yaml");
     FAIL() << "expected a throw";
   } catch (const std::runtime_error& e) {
     EXPECT_EQ(std::string(e.what()), (dir / "map.yaml").string() +
@@ -134,9 +134,9 @@ TEST(OccupancyGrid, ImageAboveTheCellBoundRefused) {
 TEST(OccupancyGrid, SavedYamlReadsBackCellForCell) {
   const auto dir = temp_dir("roundtrip");
   const auto file = nav_test::write_corridor_map(dir);
-  const auto map = load_occupancy_grid(file);
-  save_occupancy_grid_yaml(*map, dir / "again.yaml");
-  const auto again = load_occupancy_grid(dir / "again.yaml");
+  const auto map = navigation::load_occupancy_grid(file);
+  navigation::save_occupancy_grid_yaml(*map, dir / "again.yaml");
+  const auto again = navigation::load_occupancy_grid(dir / "again.yaml");
   ASSERT_EQ(map->getSizeX(), again->getSizeX());
   ASSERT_EQ(map->getSizeY(), again->getSizeY());
   for (unsigned y = 0; y < map->getSizeY(); ++y) {
@@ -147,8 +147,9 @@ TEST(OccupancyGrid, SavedYamlReadsBackCellForCell) {
 }
 
 TEST(DemoMap, MatchesItsSource) {
-  const auto committed = load_occupancy_grid(kDemoMap);
-  const auto regenerated = demo_map::crop_and_classify(*load_occupancy_grid(kMalagaSource));
+  const auto committed = navigation::load_occupancy_grid(kDemoMap);
+  const auto regenerated =
+      demo_map::crop_and_classify(*navigation::load_occupancy_grid(kMalagaSource));
   ASSERT_EQ(committed->getSizeX(), regenerated.getSizeX());
   ASSERT_EQ(committed->getSizeY(), regenerated.getSizeY());
   EXPECT_FLOAT_EQ(committed->getXMin(), demo_map::kXMinM);
@@ -166,32 +167,32 @@ TEST(StandoffPose, IsInFrontOfTheTargetFacingIt) {
   TargetSpec target;
   target.T_map_model = isometry_from_xyz_rpy(6.0, 2.0, 0.9, 0.0, 0.0, kPi);  // faces -x
   target.standoff_m = 1.5;
-  const Pose2D p = standoff_pose(target);
+  const Pose2D p = navigation::standoff_pose(target);
   EXPECT_NEAR(p.x_m, 4.5, 1e-9);
   EXPECT_NEAR(p.y_m, 2.0, 1e-9);
   EXPECT_NEAR(wrap_angle_rad(p.yaw_rad), 0.0, 1e-9);
   // A tilted model: only the floor projection of +x counts.
   target.T_map_model = isometry_from_xyz_rpy(0.0, 0.0, 1.0, 0.0, -0.5, kPi / 2);
-  const Pose2D q = standoff_pose(target);
+  const Pose2D q = navigation::standoff_pose(target);
   EXPECT_NEAR(q.x_m, 0.0, 1e-9);
   EXPECT_NEAR(q.y_m, 1.5, 1e-9);
   EXPECT_NEAR(q.yaw_rad, -kPi / 2, 1e-9);
 }
 
 // A mission on the corridor map with marks as the loader would record them.
-LoadedMission corridor_mission() {
-  LoadedMission m;
+host::LoadedMission corridor_mission() {
+  host::LoadedMission m;
   m.file = "m.yaml";
   m.robot.base.radius_m = 0.35;
   m.start = Pose2D{3.0, 2.0, 0.0};
-  m.marks["start"] = SourceMark{"m.yaml", 3, 8};
+  m.marks["start"] = host::SourceMark{"m.yaml", 3, 8};
   auto add = [&](double x, double y, double yaw, int line) {
     TargetSpec t;
     t.id = "t" + std::to_string(m.targets.size());
     t.T_map_model = isometry_from_xyz_rpy(x, y, 1.0, 0.0, 0.0, yaw);
     const std::string prefix = "targets[" + std::to_string(m.targets.size()) + "]";
-    m.marks[prefix + ".pose"] = SourceMark{"m.yaml", line, 11};
-    m.marks[prefix + ".standoff_m"] = SourceMark{"m.yaml", line + 1, 17};
+    m.marks[prefix + ".pose"] = host::SourceMark{"m.yaml", line, 11};
+    m.marks[prefix + ".standoff_m"] = host::SourceMark{"m.yaml", line + 1, 17};
     m.targets.push_back(t);
   };
   add(20.0, 3.2, -kPi / 2, 10);  // on the corridor's wall, facing into it: fine
@@ -205,10 +206,11 @@ LoadedMission corridor_mission() {
 }
 
 TEST(ValidateAgainstMap, ReportsEachProblemAtItsField) {
-  const auto map = load_occupancy_grid(nav_test::write_corridor_map(temp_dir("validate")));
-  Diagnostics diag;
-  const LoadedMission mission = corridor_mission();
-  report_map_problems(mission, check_mission_on_map(mission, *map), diag);
+  const auto map =
+      navigation::load_occupancy_grid(nav_test::write_corridor_map(temp_dir("validate")));
+  host::Diagnostics diag;
+  const host::LoadedMission mission = corridor_mission();
+  report_map_problems(mission, navigation::check_mission_on_map(mission, *map), diag);
   std::vector<std::string> lines;
   for (const auto& d : diag.items()) lines.push_back(d.format());
   const std::vector<std::string> expected = {
@@ -226,20 +228,20 @@ TEST(ValidateAgainstMap, ReportsEachProblemAtItsField) {
 }
 
 TEST(ValidateAgainstMap, StartInAWall) {
-  const auto map = load_occupancy_grid(nav_test::write_corridor_map(temp_dir("start")));
-  LoadedMission m = corridor_mission();
+  const auto map = navigation::load_occupancy_grid(nav_test::write_corridor_map(temp_dir("start")));
+  host::LoadedMission m = corridor_mission();
   m.targets.resize(1);
   m.start = Pose2D{3.0, 0.95, 0.0};
-  Diagnostics diag;
-  report_map_problems(m, check_mission_on_map(m, *map), diag);
+  host::Diagnostics diag;
+  report_map_problems(m, navigation::check_mission_on_map(m, *map), diag);
   ASSERT_EQ(diag.items().size(), 1u);
   EXPECT_EQ(diag.items()[0].format(),
             "m.yaml:3:8: start: start pose (3.00, 0.95) is in an occupied cell");
 }
 
 TEST(PathPlanner, PathsOnTheDemoMapAreCollisionFreeOnTheInflatedGrid) {
-  const auto map = load_occupancy_grid(kDemoMap);
-  const PathPlanner planner(*map, 0.35);
+  const auto map = navigation::load_occupancy_grid(kDemoMap);
+  const navigation::PathPlanner planner(*map, 0.35);
   const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> queries = {
       {{10.0, 1.0}, {30.0, 1.0}},
       {{10.0, 1.0}, {22.0, -100.0}},
@@ -260,8 +262,9 @@ TEST(PathPlanner, PathsOnTheDemoMapAreCollisionFreeOnTheInflatedGrid) {
 }
 
 TEST(PathPlanner, NoPathIntoAClosedRoomAndAroundNewObstacles) {
-  const auto map = load_occupancy_grid(nav_test::write_corridor_map(temp_dir("planner")));
-  PathPlanner planner(*map, 0.35);
+  const auto map =
+      navigation::load_occupancy_grid(nav_test::write_corridor_map(temp_dir("planner")));
+  navigation::PathPlanner planner(*map, 0.35);
   EXPECT_FALSE(planner.plan({3.0, 2.0}, {12.0, 8.0}).has_value());
   EXPECT_TRUE(planner.plan({3.0, 2.0}, {25.0, 2.0}).has_value());
   std::vector<Eigen::Vector2d> wall;

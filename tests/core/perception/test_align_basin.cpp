@@ -7,7 +7,7 @@
 #include <random>
 
 #include "projtour/perception/registration.hpp"
-#include "rendered_scenes.hpp"
+#include "projtour_test/rendered_scenes.hpp"
 
 namespace projtour {
 namespace {
@@ -24,8 +24,9 @@ class Basin : public ::testing::Test {
   static constexpr int kFrames = 6;
 
   static void SetUpTestSuite() {
-    const TriangleMesh mesh = load_mesh(PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply");
-    model_ = new IcpModel(sample_mesh(mesh, 0.003));
+    const perception::TriangleMesh mesh =
+        perception::load_mesh(PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply");
+    model_ = new perception::IcpModel(perception::sample_mesh(mesh, 0.003));
     // A handful of true poses (the robot a little left or right, higher or lower, the bunny
     // turned), each rendered once and reused by many trials.
     std::mt19937 rng(17);
@@ -49,7 +50,7 @@ class Basin : public ::testing::Test {
       const int f = t % kFrames;
       const Eigen::Isometry3d guess = test::perturb(truths_[f], unit(rng) * max_trans_m,
                                                     deg_to_rad(unit(rng) * max_rot_deg), rng);
-      const RegistrationResult r = align_projective_icp(
+      const perception::RegistrationResult r = perception::align_projective_icp(
           *model_, frames_[f], Eigen::Vector3d::Zero(), guess, max_trans_m + 0.02);
       const double e_mm = translation_distance_m(r.T_camera_model, truths_[f]) * 1000.0;
       const double e_deg = rad_to_deg(rotation_angle_rad(r.T_camera_model, truths_[f]));
@@ -66,11 +67,11 @@ class Basin : public ::testing::Test {
     return fig;
   }
 
-  static IcpModel* model_;
+  static perception::IcpModel* model_;
   static std::vector<Eigen::Isometry3d> truths_;
   static std::vector<DepthFrame> frames_;
 };
-IcpModel* Basin::model_ = nullptr;
+perception::IcpModel* Basin::model_ = nullptr;
 std::vector<Eigen::Isometry3d> Basin::truths_;
 std::vector<DepthFrame> Basin::frames_;
 

@@ -109,13 +109,13 @@ Harness::Harness(std::vector<std::string> target_ids) {
         from_machine ? InProcessCatalog::Validator(validate_script)
                      : InProcessCatalog::Validator());
   }
-  scripts_["__defaults"] = default_params(scripted_param_specs());
+  scripts_["__defaults"] = host::default_params(scripted_param_specs());
   script("verify", "verified");  // verify's success is "verified"
 }
 
 void Harness::script(const std::string& kind, const std::string& outcomes, long long ticks,
                      long long throw_on, bool ignore_cancel) {
-  Params p = default_params(scripted_param_specs());
+  Params p = host::default_params(scripted_param_specs());
   p.set("outcomes", outcomes);
   p.set("ticks", ticks);
   p.set("throw_on", throw_on);
@@ -123,20 +123,20 @@ void Harness::script(const std::string& kind, const std::string& outcomes, long 
   scripts_[kind] = p;
 }
 
-std::optional<Machine> Harness::parse(const std::string& yaml, Diagnostics& diag) const {
-  const auto node = load_yaml_string(yaml, "machine.yaml", diag);
+std::optional<Machine> Harness::parse(const std::string& yaml, host::Diagnostics& diag) const {
+  const auto node = host::load_yaml_string(yaml, "machine.yaml", diag);
   if (!node) return std::nullopt;
-  return load_machine(YamlField(*node, "machine.yaml", diag), catalog, diag);
+  return load_machine(host::YamlField(*node, "machine.yaml", diag), catalog, diag);
 }
 
 void Harness::load_default() {
-  Diagnostics diag;
-  machine = load_machine(MachineSource{}, catalog, diag);
+  host::Diagnostics diag;
+  machine = load_machine(host::MachineSource{}, catalog, diag);
   ASSERT_TRUE(machine.has_value()) << diag.format();
 }
 
 void Harness::load(const std::string& yaml) {
-  Diagnostics diag;
+  host::Diagnostics diag;
   machine = parse(yaml, diag);
   ASSERT_TRUE(machine.has_value()) << diag.format();
 }

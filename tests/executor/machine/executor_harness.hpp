@@ -56,7 +56,7 @@ class Harness {
   void script(const std::string& kind, const std::string& outcomes, long long ticks = 1,
               long long throw_on = 0, bool ignore_cancel = false);
   // nullopt and the diagnostics when the machine is invalid.
-  std::optional<Machine> parse(const std::string& yaml, Diagnostics& diag) const;
+  std::optional<Machine> parse(const std::string& yaml, host::Diagnostics& diag) const;
   void load_default();
   void load(const std::string& yaml);  // fails the test when invalid
   void build(ExecutorOptions options = {});

@@ -54,22 +54,22 @@ class DataHarness {
       return nullptr;
     };
     catalog.add("make", {"succeeded", "nothing"}, {}, none, nullptr,
-                {{"frame", "CapturedFrame", KeyAccess::write}});
+                {{"frame", "CapturedFrame", host::KeyAccess::write}});
     catalog.add("use", {"succeeded"}, {}, none, nullptr,
-                {{"frame", "CapturedFrame", KeyAccess::read}});
+                {{"frame", "CapturedFrame", host::KeyAccess::read}});
     catalog.add("peek", {"succeeded"}, {}, none, nullptr,
-                {{"frame", "CapturedFrame", KeyAccess::read_if_present}});
+                {{"frame", "CapturedFrame", host::KeyAccess::read_if_present}});
     catalog.add("other", {"succeeded"}, {}, none, nullptr,
-                {{"frame", "DepthFrame", KeyAccess::write}});
+                {{"frame", "DepthFrame", host::KeyAccess::write}});
     catalog.add("locate", {"succeeded"}, {}, none, nullptr,
-                {{"localization.estimate", "PoseEstimate2D", KeyAccess::read}});
+                {{"localization.estimate", "PoseEstimate2D", host::KeyAccess::read}});
   }
 
   std::vector<std::string> errors(const std::string& yaml,
-                                  const std::vector<KeyUse>& services = {}) {
-    Diagnostics diag;
-    const auto node = load_yaml_string(yaml, "machine.yaml", diag);
-    const auto machine = load_machine(YamlField(*node, "machine.yaml", diag), catalog, diag);
+                                  const std::vector<host::KeyUse>& services = {}) {
+    host::Diagnostics diag;
+    const auto node = host::load_yaml_string(yaml, "machine.yaml", diag);
+    const auto machine = load_machine(host::YamlField(*node, "machine.yaml", diag), catalog, diag);
     EXPECT_TRUE(machine.has_value()) << diag.format();
     if (machine) check_machine_data(*machine, catalog, services, diag);
     std::vector<std::string> out;
@@ -156,8 +156,8 @@ TEST(MachineData, AServiceWriteSatisfiesEveryState) {
   DataHarness h;
   const std::string yaml = visit("locate", "{succeeded: b, failed: skip_target}", "peek");
   EXPECT_EQ(h.errors(yaml).size(), 1u);
-  EXPECT_TRUE(
-      h.errors(yaml, {{"localization.estimate", "PoseEstimate2D", KeyAccess::write}}).empty());
+  EXPECT_TRUE(h.errors(yaml, {{"localization.estimate", "PoseEstimate2D", host::KeyAccess::write}})
+                  .empty());
 }
 
 TEST(MachineData, ReadersAndWritersOfOneKeyMustAgreeOnItsType) {
@@ -171,11 +171,11 @@ TEST(MachineData, ReadersAndWritersOfOneKeyMustAgreeOnItsType) {
 
 TEST(MachineData, GraphDrawsADottedEdgeFromWriterToReader) {
   DataHarness h;
-  Diagnostics diag;
-  const auto node = load_yaml_string(
+  host::Diagnostics diag;
+  const auto node = host::load_yaml_string(
       visit("make", "{succeeded: b, nothing: skip_target, failed: skip_target}", "use"),
       "machine.yaml", diag);
-  const auto machine = load_machine(YamlField(*node, "machine.yaml", diag), h.catalog, diag);
+  const auto machine = load_machine(host::YamlField(*node, "machine.yaml", diag), h.catalog, diag);
   ASSERT_TRUE(machine) << diag.format();
   const std::string dot = machine_to_dot(*machine, &h.catalog);
   EXPECT_NE(dot.find("\"tour/visit/a\" -> \"tour/visit/b\" [label=\"frame\", style=dotted"),

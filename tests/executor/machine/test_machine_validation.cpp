@@ -22,7 +22,7 @@ std::string machine_with(const std::string& body, const std::string& more_states
 
 std::vector<std::string> errors_of(const std::string& yaml) {
   Harness h;
-  Diagnostics diag;
+  host::Diagnostics diag;
   const auto machine = h.parse(yaml, diag);
   EXPECT_FALSE(machine.has_value());
   std::vector<std::string> out;
@@ -246,7 +246,7 @@ TEST(MachineValidation, CycleThroughACompositesDoneRefused) {
 
 TEST(MachineValidation, CycleThroughARetryListAccepted) {
   Harness h;
-  Diagnostics diag;
+  host::Diagnostics diag;
   const auto machine =
       h.parse(machine_with("        behaviour: scripted\n"
                            "        retries: 3\n"
@@ -262,7 +262,7 @@ TEST(MachineValidation, CycleThroughARetryListAccepted) {
 TEST(MachineValidation, StateWhoseEveryWayOutIsFailedRefused) {
   Harness h;
   h.catalog.add("doomed", {}, {}, nullptr);
-  Diagnostics diag;
+  host::Diagnostics diag;
   EXPECT_FALSE(h.parse(machine_with("        behaviour: doomed\n"
                                     "        on: {failed: skip_target}\n"),
                        diag));
@@ -284,17 +284,17 @@ TEST(MachineValidation, RetriesOfABillionRefused) {
 
 TEST(MachineValidation, MachineThatNeverVisitsTargetsRefused) {
   Harness h;
-  Diagnostics diag;
+  host::Diagnostics diag;
   const std::string yaml =
       "initial: a\n"
       "states:\n"
       "  a:\n"
       "    behaviour: scripted\n"
       "    on: {succeeded: finish, failed: abort}\n";
-  const auto node = load_yaml_string(yaml, "machine.yaml", diag);
+  const auto node = host::load_yaml_string(yaml, "machine.yaml", diag);
   ASSERT_TRUE(node);
   EXPECT_TRUE(h.parse(yaml, diag)) << diag.format();  // a machine of its own may do without
-  MachineSource source;
+  host::MachineSource source;
   source.is_default = false;
   source.node = *node;
   source.file = "machine.yaml";

@@ -44,8 +44,8 @@ ExecutorOptions scheduled(long long rounds, double pause_s = 60.0) {
   return o;
 }
 
-std::vector<TargetTimes> no_times(std::size_t n) {
-  return std::vector<TargetTimes>(n);
+std::vector<host::TargetTimes> no_times(std::size_t n) {
+  return std::vector<host::TargetTimes>(n);
 }
 
 const ExecutorEvent& round_event(const Recorder& r, int round, const std::string& outcome) {

@@ -445,7 +445,7 @@ states:
 
 TEST(MachineValidation, OrderBelongsToAForEach) {
   Harness h;
-  Diagnostics diag;
+  host::Diagnostics diag;
   EXPECT_FALSE(h.parse(R"(initial: a
 states:
   a:

@@ -397,11 +397,11 @@ TEST_F(Command, ResumeFromAMalformedCheckpointNamesTheFileAndByte) {
 // The scripted kinds through dlopen and the registry, driven in-process: what the plugin
 // declares is what the machine is checked against, and its behaviours run the tour.
 TEST(ScriptedPlugin, RunsAMachineThroughTheRegistry) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(kPluginPath + "/libprojtour_testing.so");
   RegistryCatalog catalog(registry);
-  Diagnostics diag;
-  const auto node = load_yaml_string(R"(initial: visit
+  host::Diagnostics diag;
+  const auto node = host::load_yaml_string(R"(initial: visit
 states:
   visit:
     for_each: target
@@ -415,9 +415,9 @@ states:
              failed: skip_target}
     on: {done: finish}
 )",
-                                     "plugin_machine.yaml", diag);
+                                           "plugin_machine.yaml", diag);
   ASSERT_TRUE(node);
-  auto machine = load_machine(YamlField(*node, "plugin_machine.yaml", diag), catalog, diag);
+  auto machine = load_machine(host::YamlField(*node, "plugin_machine.yaml", diag), catalog, diag);
   ASSERT_TRUE(machine) << diag.format();
 
   test::RunRig rig;
@@ -466,11 +466,12 @@ states:
 // The null colour camera fills the interface for hardware-free runs: no frames, and each
 // exposure setting noted beside the safe stops.
 TEST(ScriptedPlugin, NullColourCameraHasNoFramesAndNotesExposures) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(kPluginPath + "/libprojtour_testing.so");
   const test::RunRig rig;
   auto driver = registry.create_driver(
-      "test_colour_camera", default_params(registry.require("test_colour_camera").params), rig.run);
+      "test_colour_camera", host::default_params(registry.require("test_colour_camera").params),
+      rig.run);
   auto* camera = dynamic_cast<ColourCameraDriver*>(driver.get());
   ASSERT_NE(camera, nullptr);
   EXPECT_FALSE(camera->grab());
@@ -486,16 +487,16 @@ TEST(ScriptedPlugin, NullColourCameraHasNoFramesAndNotesExposures) {
 }
 
 TEST(ScriptedPlugin, MachineIsCheckedAgainstThePluginsDeclaredOutcomes) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(kPluginPath + "/libprojtour_testing.so");
   RegistryCatalog catalog(registry);
-  Diagnostics diag;
-  const auto node = load_yaml_string(
+  host::Diagnostics diag;
+  const auto node = host::load_yaml_string(
       "initial: a\nstates:\n  a:\n    behaviour: scripted_capture\n"
       "    params: {ticks: 0}\n    on: {succeeded: finish, failed: abort, lost: abort}\n",
       "m.yaml", diag);
   ASSERT_TRUE(node);
-  EXPECT_FALSE(load_machine(YamlField(*node, "m.yaml", diag), catalog, diag));
+  EXPECT_FALSE(load_machine(host::YamlField(*node, "m.yaml", diag), catalog, diag));
   EXPECT_EQ(diag.format(),
             "m.yaml:5:13: states.a.params: ticks must be at least 1\n"
             "m.yaml:6:44: states.a.on.lost: behaviour \"scripted_capture\" does not declare "

@@ -33,16 +33,16 @@ inline std::filesystem::path sign_off() {
 struct Rig {
   test::RunRig rig{test::RunRig::RunDir::none};
   MissionSpec& mission = rig.mission;
-  WorldSpec& world = rig.world;
+  host::WorldSpec& world = rig.world;
   RunContext& run = rig.run;
   std::shared_ptr<SimWorld> sim;
 
   // The sign at (3, 0, 0.9) facing -x; the robot starts at `start` in a room [-1.5, 5] x
   // [-2.5, 2.5].
   explicit Rig(std::uint64_t seed = 1, Pose2D start = {1.5, 0.0, 0.0}, bool with_map = true) {
-    Diagnostics diag;
-    auto robot =
-        load_robot(std::filesystem::path(PROJTOUR_SOURCE_DIR) / "examples/robot/ud.yaml", diag);
+    host::Diagnostics diag;
+    auto robot = host::load_robot(
+        std::filesystem::path(PROJTOUR_SOURCE_DIR) / "examples/robot/ud.yaml", diag);
     if (!robot) throw std::runtime_error("cannot load ud.yaml");
     mission.name = "sim-test";
     mission.robot = *robot;
@@ -93,7 +93,7 @@ inline std::array<Eigen::Vector2d, 4> true_pixels(const Rig& rig, const SimWorld
 
 // Aims the head at the sign from where the robot stands.
 inline void aim_at_sign(Rig& rig, SimWorld& w) {
-  const HeadKinematics head(rig.mission.robot);
+  const head::HeadKinematics head(rig.mission.robot);
   const Eigen::Vector3d p_base = w.true_T_map_base().inverse() * Eigen::Vector3d(3.0, 0.0, 0.9);
   const auto q = head.aim_projector_at(p_base);
   ASSERT_TRUE(q);

@@ -33,9 +33,9 @@ LaserScan next_scan(Rig& rig, SimWorld& w) {
   return {};
 }
 
-WorldObjectSpec box(double x, double y, double size_m, double height_m = 0.8) {
-  WorldObjectSpec o;
-  o.shape = WorldObjectSpec::Shape::box;
+host::WorldObjectSpec box(double x, double y, double size_m, double height_m = 0.8) {
+  host::WorldObjectSpec o;
+  o.shape = host::WorldObjectSpec::Shape::box;
   o.pose = {x, y, 0.0};
   o.size_x_m = o.size_y_m = size_m;
   o.height_m = height_m;
@@ -61,7 +61,7 @@ TEST(Building, AnUnmappedBoxIsSeenByTheLaserAndNotDrawnOnTheMap) {
 
 TEST(Building, GlassIsSeenThroughButTheBumperMeetsIt) {
   Rig rig;
-  WallSegmentSpec pane;
+  host::WallSegmentSpec pane;
   pane.a_m = {2.6, -2.5};
   pane.b_m = {2.6, 2.5};
   pane.thickness_m = 0.05;
@@ -99,12 +99,12 @@ TEST(Building, AThickWallOnTheMapIsThinnerInTheBuilding) {
 
 TEST(Building, MissingAndExtraWalls) {
   Rig rig;
-  WallSegmentSpec gone;  // the far wall, opposite the robot, is not there
+  host::WallSegmentSpec gone;  // the far wall, opposite the robot, is not there
   gone.a_m = {5.05, -0.5};
   gone.b_m = {5.05, 0.5};
   gone.thickness_m = 0.4;  // and the map's unknown margin behind it
   rig.world.map_error.missing_walls.push_back(gone);
-  WallSegmentSpec extra;  // a wall behind the robot that the map lacks
+  host::WallSegmentSpec extra;  // a wall behind the robot that the map lacks
   extra.a_m = {0.0, -2.5};
   extra.b_m = {0.0, 2.5};
   rig.world.map_error.extra_walls.push_back(extra);
@@ -138,8 +138,8 @@ TEST(Building, TheRefereeCountsTheRobotComingTooCloseToAnObject) {
   EXPECT_EQ(f.clearance_violations, 1);
 }
 
-PersonSpec walker(std::vector<Eigen::Vector2d> route, double speed_mps) {
-  PersonSpec p;
+host::PersonSpec walker(std::vector<Eigen::Vector2d> route, double speed_mps) {
+  host::PersonSpec p;
   p.route_m = std::move(route);
   p.speed_mps = speed_mps;
   return p;
@@ -237,7 +237,7 @@ TEST(Building, LightOnAPersonIsCountedOnlyWhileLit) {
 
 TEST(Building, APersonCrossesTheBeamAfterTheContentGoesUp) {
   Rig rig;
-  FaultSpec crossing;
+  host::FaultSpec crossing;
   crossing.target = "sign";
   crossing.type = "person_crossing";
   crossing.values = {{"after_s", 1.0}, {"speed_mps", 1.0}};

@@ -284,7 +284,7 @@ double patch_mean(const ColourFrame& f, const Eigen::Vector2d& px) {
   return sum / 75.0;
 }
 
-SimWorld& make_with(Rig& rig, std::vector<FaultSpec> faults) {
+SimWorld& make_with(Rig& rig, std::vector<host::FaultSpec> faults) {
   rig.world.faults = std::move(faults);
   return rig.make();
 }
@@ -294,7 +294,7 @@ SimWorld& make_with(Rig& rig, std::vector<FaultSpec> faults) {
 struct AimedRig {
   Rig rig;
   SimWorld& w;
-  explicit AimedRig(std::uint64_t seed = 1, std::vector<FaultSpec> faults = {},
+  explicit AimedRig(std::uint64_t seed = 1, std::vector<host::FaultSpec> faults = {},
                     Pose2D start = {2.0, 0.0, 0.0})
       : rig(seed, start), w(make_with(rig, std::move(faults))) {
     w.advance(0.0);
@@ -436,7 +436,7 @@ bool segment_hits_box(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
 TEST(SimColourCamera, OccluderShadowsTheSign) {
   // A board hanging 0.5 m in front of the sign: the camera, above the projector, looks over its
   // top edge onto a strip of the sign the projector cannot reach.
-  const std::vector<FaultSpec> faults = {
+  const std::vector<host::FaultSpec> faults = {
       {"sign", "occluder", {{"distance_m", 0.5}, {"width_m", 0.8}, {"height_m", 0.4}}, {}}};
   AimedRig plain, occluded(1, faults);
   const PinholeModel& p = plain.rig.mission.robot.projector.intrinsics;
@@ -480,7 +480,7 @@ TEST(SimColourCamera, DisconnectsWithTheDepthCamera) {
 TEST(SimFaults, PoleCatchesTheLightAndStandsInTheWay) {
   // The robot 1.4 m from the sign (the pole 0.8 m in front of it, beyond the depth camera's
   // 0.4 m minimum); the pole 0.6 m in front of the sign, 10 cm across.
-  const std::vector<FaultSpec> pole = {
+  const std::vector<host::FaultSpec> pole = {
       {"sign", "pole", {{"distance_m", 0.6}, {"diameter_m", 0.1}, {"offset_m", 0.0}}, {}}};
   AimedRig plain(1, {}, {1.6, 0.0, 0.0}), with_pole(1, pole, {1.6, 0.0, 0.0});
   // Depth: the pole stands 0.8 m from the camera, straight ahead.
@@ -533,13 +533,14 @@ TEST(SimFaults, PoleOnTheStandOffPoseIsNoObstacle) {
 }
 
 TEST(SimPlugin, ProvidesTheColourCamera) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(std::filesystem::path(PROJTOUR_PLUGIN_BUILD_DIR) / "libprojtour_sim.so");
   Rig rig(1, {2.0, 0.0, 0.0});
-  const KindInfo& info = registry.require("sim_colour_camera");
-  EXPECT_EQ(info.family, Family::driver);
+  const host::KindInfo& info = registry.require("sim_colour_camera");
+  EXPECT_EQ(info.family, host::Family::driver);
   EXPECT_EQ(info.params.size(), 4u);
-  auto driver = registry.create_driver("sim_colour_camera", default_params(info.params), rig.run);
+  auto driver =
+      registry.create_driver("sim_colour_camera", host::default_params(info.params), rig.run);
   auto camera = std::dynamic_pointer_cast<ColourCameraDriver>(driver);
   ASSERT_TRUE(camera);
   ASSERT_NE(camera->ground_truth(), nullptr);
@@ -550,7 +551,7 @@ TEST(SimPlugin, ProvidesTheColourCamera) {
   EXPECT_EQ(frame->bgr.size(), 640u * 480u * 3u);
   EXPECT_EQ(frame->exposure_ms, 20.0);
   EXPECT_FALSE(camera->grab());
-  Params bad = default_params(info.params);
+  Params bad = host::default_params(info.params);
   bad.set("room_lux", -1.0);
   EXPECT_THROW(registry.create_driver("sim_colour_camera", bad, rig.run), std::exception);
 }

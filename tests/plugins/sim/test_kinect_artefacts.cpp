@@ -366,8 +366,9 @@ std::uint64_t fnv1a(const std::vector<std::uint16_t>& mm) {
 TEST(KinectArtefacts, OffGivesTheFramesOfTheModelWithoutThem) {
   const PinholeModel k = testing::kinect_intrinsics();
   SceneBuilder builder;
-  builder.add_mesh(load_mesh(std::string(PROJTOUR_SOURCE_DIR) + "/examples/models/bunny.ply"),
-                   isometry_from_xyz_rpy(1.2, 0, 0, 0, 0, kPi), 2);
+  builder.add_mesh(
+      perception::load_mesh(std::string(PROJTOUR_SOURCE_DIR) + "/examples/models/bunny.ply"),
+      isometry_from_xyz_rpy(1.2, 0, 0, 0, 0, kPi), 2);
   builder.add_occupancy_walls(*testing::room_grid(-1.0f, 2.5f, -2.0f, 2.0f), 2.0, 1);
   builder.set_floor(-0.9, 0);
   const IdealDepth ideal = render(builder.build(), k);

@@ -31,32 +31,33 @@ const char* const kCubeOff =
     "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 2 3 7 6\n4 1 2 6 5\n4 0 4 7 3\n";
 
 TEST(ModelIo, LoadsBunnyPly) {
-  const TriangleMesh mesh = load_mesh(kBunny);
+  const perception::TriangleMesh mesh = perception::load_mesh(kBunny);
   EXPECT_EQ(mesh.vertices.size(), 1839u);
   EXPECT_EQ(mesh.triangles.size(), 3674u);
 }
 
 TEST(ModelIo, LoadsOffAndTriangulatesQuads) {
-  const TriangleMesh mesh = load_mesh(temp_file("cube.off", kCubeOff));
+  const perception::TriangleMesh mesh = perception::load_mesh(temp_file("cube.off", kCubeOff));
   EXPECT_EQ(mesh.vertices.size(), 8u);
   EXPECT_EQ(mesh.triangles.size(), 12u);
 }
 
 TEST(ModelIo, MissingFileNamesIt) {
   try {
-    load_mesh("/nonexistent/thing.ply");
+    perception::load_mesh("/nonexistent/thing.ply");
     FAIL() << "expected an exception";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/thing.ply"), std::string::npos);
   }
-  EXPECT_THROW(load_mesh(temp_file("bad.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n")), std::runtime_error);
+  EXPECT_THROW(perception::load_mesh(temp_file("bad.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n")),
+               std::runtime_error);
 }
 
 TEST(ModelIo, SampleMeshIsUniformOutwardAndDeterministic) {
-  const TriangleMesh cube = load_mesh(temp_file("cube2.off", kCubeOff));
-  const ModelCloud a = sample_mesh(cube, 0.01, 7);
-  const ModelCloud b = sample_mesh(cube, 0.01, 7);
-  const ModelCloud c = sample_mesh(cube, 0.01, 8);
+  const perception::TriangleMesh cube = perception::load_mesh(temp_file("cube2.off", kCubeOff));
+  const ModelCloud a = perception::sample_mesh(cube, 0.01, 7);
+  const ModelCloud b = perception::sample_mesh(cube, 0.01, 7);
+  const ModelCloud c = perception::sample_mesh(cube, 0.01, 8);
   // Area 6 m^2 at 1 cm spacing: 60000 points.
   ASSERT_EQ(a.points.size(), 60000u);
   EXPECT_EQ(a.points, b.points);
@@ -77,7 +78,7 @@ TEST(ModelIo, SampleMeshIsUniformOutwardAndDeterministic) {
 }
 
 TEST(ModelIo, ModelCloudFromBunnyMesh) {
-  const ModelCloud cloud = load_model_cloud(kBunny, 0.003);
+  const ModelCloud cloud = perception::load_model_cloud(kBunny, 0.003);
   EXPECT_GT(cloud.points.size(), 2000u);
   EXPECT_EQ(cloud.points.size(), cloud.normals.size());
   EXPECT_GT(cloud.bounding_radius_m, 0.1f);
@@ -103,19 +104,19 @@ TEST(ModelIo, PointCloudPlyGetsOutwardPcaNormals) {
         0.1f * Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), z).cast<float>();
     ply += std::to_string(p.x()) + " " + std::to_string(p.y()) + " " + std::to_string(p.z()) + "\n";
   }
-  const ModelCloud cloud = load_model_cloud(temp_file("sphere.ply", ply), 0.005);
+  const ModelCloud cloud = perception::load_model_cloud(temp_file("sphere.ply", ply), 0.005);
   ASSERT_EQ(cloud.points.size(), 2000u);
   for (std::size_t i = 0; i < cloud.points.size(); ++i) {
     EXPECT_GT(cloud.normals[i].dot(cloud.points[i].normalized()), 0.98f);
   }
   EXPECT_NEAR(cloud.bounding_radius_m, 0.1f, 1e-3f);
-  EXPECT_THROW(load_mesh(temp_file("sphere2.ply", ply)), std::runtime_error);
+  EXPECT_THROW(perception::load_mesh(temp_file("sphere2.ply", ply)), std::runtime_error);
 }
 
 // A point-only copy of the bunny's surface samples: the estimated normals must follow the mesh's
 // face normals (the ones sample_mesh gives) and come out the same bit for bit on every load.
 TEST(ModelIo, PointCloudBunnyNormalsFollowTheSurfaceAndRepeat) {
-  const ModelCloud truth = sample_mesh(load_mesh(kBunny), 0.003);
+  const ModelCloud truth = perception::sample_mesh(perception::load_mesh(kBunny), 0.003);
   std::string ply = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(truth.points.size()) +
                     "\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
   char line[96];
@@ -124,8 +125,8 @@ TEST(ModelIo, PointCloudBunnyNormalsFollowTheSurfaceAndRepeat) {
     ply += line;
   }
   const auto file = temp_file("bunny_points.ply", ply);
-  const ModelCloud a = load_model_cloud(file, 0.003);
-  const ModelCloud b = load_model_cloud(file, 0.003);
+  const ModelCloud a = perception::load_model_cloud(file, 0.003);
+  const ModelCloud b = perception::load_model_cloud(file, 0.003);
   ASSERT_EQ(a.points.size(), truth.points.size());
   EXPECT_EQ(a.normals, b.normals);
   std::vector<double> angle_deg;

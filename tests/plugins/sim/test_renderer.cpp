@@ -101,7 +101,7 @@ TEST(Renderer, FloorAndWallsFromGrid) {
   EXPECT_NEAR(hit.normal.z(), 1.0f, 1e-6f);
 }
 
-int silhouette_pixels(const TriangleMesh& bunny, double distance_m) {
+int silhouette_pixels(const perception::TriangleMesh& bunny, double distance_m) {
   SceneBuilder builder;
   builder.add_mesh(bunny, isometry_from_xyz_rpy(distance_m, 0, 0, 0, 0, kPi), 2);
   const DepthRenderer renderer(testing::kinect_intrinsics());
@@ -111,7 +111,7 @@ int silhouette_pixels(const TriangleMesh& bunny, double distance_m) {
 }
 
 TEST(Renderer, BunnySilhouetteScalesWithDistance) {
-  const TriangleMesh bunny = load_mesh(kBunny);
+  const perception::TriangleMesh bunny = perception::load_mesh(kBunny);
   const int near_px = silhouette_pixels(bunny, 1.0);
   const int far_px = silhouette_pixels(bunny, 2.0);
   // About 0.3 m x 0.29 m of rabbit at f = 570 px, 1 m away: tens of thousands of pixels.
@@ -160,8 +160,8 @@ double measured_sigma_m(double distance_m, double* mean_m = nullptr) {
 // Every ray aimed at a front-facing vertex of a closed mesh, placed where a tour puts it (tens of
 // metres from the map origin), must stop at that vertex.
 TEST(Renderer, RaysAtVerticesOfAClosedMeshStopAtTheFrontSurface) {
-  const TriangleMesh mesh =
-      load_mesh(std::string(PROJTOUR_SOURCE_DIR) + "/examples/models/pillar.ply");
+  const perception::TriangleMesh mesh =
+      perception::load_mesh(std::string(PROJTOUR_SOURCE_DIR) + "/examples/models/pillar.ply");
   const Eigen::Isometry3d T_map_model =
       isometry_from_xyz_rpy(-7.5637, -51.4731, 0.75, 0.0, 0.0, deg_to_rad(1.7));
   SceneBuilder builder;
@@ -192,7 +192,7 @@ TEST(Renderer, RaysAtVerticesOfAClosedMeshStopAtTheFrontSurface) {
 // A NaN vertex once reached the BVH and the first frame crashed the dry run (SIGSEGV); the
 // scene refuses the mesh instead, with the reason.
 TEST(Renderer, MeshWithNanVertexOrStrayIndexIsRefused) {
-  TriangleMesh mesh;
+  perception::TriangleMesh mesh;
   mesh.vertices = {{0, 0, 0}, {0, 1, 0}, {0, 0, std::nanf("")}};
   mesh.triangles = {{0, 1, 2}};
   SceneBuilder builder;
@@ -252,7 +252,7 @@ TEST(KinectNoise, GrazingAndOutOfRangePixelsAreMissing) {
 TEST(KinectNoise, SameSeedSameFrameOtherSeedDiffers) {
   const PinholeModel k = testing::kinect_intrinsics();
   SceneBuilder builder;
-  builder.add_mesh(load_mesh(kBunny), isometry_from_xyz_rpy(1.2, 0, 0, 0, 0, kPi), 2);
+  builder.add_mesh(perception::load_mesh(kBunny), isometry_from_xyz_rpy(1.2, 0, 0, 0, 0, kPi), 2);
   builder.add_occupancy_walls(*testing::room_grid(-1.0f, 2.5f, -2.0f, 2.0f), 2.0, 1);
   builder.set_floor(-0.9, 0);
   const Scene scene = builder.build();

@@ -141,7 +141,7 @@ TEST(SimReferee, CalibrationErrorShowsInTheProjection) {
   w.advance(0.0);
   aim_at_sign(rig, w);
   // Pixels the robot computes with the robot file's (believed) projector mount.
-  const HeadKinematics believed(rig.mission.robot);
+  const head::HeadKinematics believed(rig.mission.robot);
   const Eigen::Isometry3d T_map_projector_believed =
       w.true_T_map_base() * believed.T_base_projector(w.true_head());
   std::array<Eigen::Vector2d, 4> px;
@@ -241,7 +241,7 @@ TEST(SimCamera, DepthPixelsLandOnTheSignThroughTheCaptureConvention) {
 }
 
 TEST(SimFaults, TargetMissingAndOccluder) {
-  auto frame_with = [](std::vector<FaultSpec> faults) {
+  auto frame_with = [](std::vector<host::FaultSpec> faults) {
     Rig rig(1, {2.0, 0.0, 0.0});
     rig.world.faults = std::move(faults);
     rig.make().advance(0.0);
@@ -399,8 +399,8 @@ TEST(SimWorldTruth, ModelErrorAndTargetOffsetsAreSeededAndBounded) {
     return rig;
   };
   const auto a = world_with(1), b = world_with(1), c = world_with(2);
-  const TriangleMesh robot_copy = load_mesh(a->mission.targets[0].model);
-  const TriangleMesh& seen = a->sim->true_mesh("sign");
+  const perception::TriangleMesh robot_copy = perception::load_mesh(a->mission.targets[0].model);
+  const perception::TriangleMesh& seen = a->sim->true_mesh("sign");
   ASSERT_EQ(seen.vertices.size(), robot_copy.vertices.size());
   double sum2 = 0.0, max_m = 0.0;
   for (std::size_t i = 0; i < seen.vertices.size(); ++i) {
@@ -447,7 +447,7 @@ TEST(SimWorldTruth, TargetsOnOneModelAndPoseAreOneObjectVisitedAgain) {
   rig.world.faults = {{"sign-missing", "target_missing", {}, {}},
                       {"sign-nudged", "target_nudge", {{"distance_m", 0.02}}, {}}};
   SimWorld& w = rig.make();
-  const TriangleMesh& first = w.true_mesh("sign");
+  const perception::TriangleMesh& first = w.true_mesh("sign");
   EXPECT_EQ(&w.true_mesh("sign-again"), &first);
   EXPECT_NE(&w.true_mesh("sign-missing"), &first);
   EXPECT_NE(&w.true_mesh("sign-nudged"), &first);
@@ -467,7 +467,7 @@ TEST(SimWorldTruth, TargetsOnOneModelAndPoseAreOneObjectVisitedAgain) {
 }
 
 TEST(SimPlugin, ProvidesFiveDriversSharingOneWorld) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(std::filesystem::path(PROJTOUR_PLUGIN_BUILD_DIR) / "libprojtour_sim.so");
   Rig rig(1, {2.0, 0.0, 0.0});
   rig.run.run_dir = testing::test_temp_path("run");
@@ -475,9 +475,9 @@ TEST(SimPlugin, ProvidesFiveDriversSharingOneWorld) {
   std::vector<std::shared_ptr<Driver>> drivers;
   for (const char* kind :
        {"sim_base", "sim_laser", "sim_pan_tilt", "sim_depth_camera", "sim_projector"}) {
-    const KindInfo& info = registry.require(kind);
-    EXPECT_EQ(info.family, Family::driver);
-    drivers.push_back(registry.create_driver(kind, default_params(info.params), rig.run));
+    const host::KindInfo& info = registry.require(kind);
+    EXPECT_EQ(info.family, host::Family::driver);
+    drivers.push_back(registry.create_driver(kind, host::default_params(info.params), rig.run));
     ASSERT_TRUE(drivers.back());
   }
   GroundTruth* truth = drivers[0]->ground_truth();

@@ -1,15 +1,15 @@
 // navigate and relocalize against the keys their descriptors declare: each runs in the
-// navigation tests' in-process dry run (tests/core/navigation/nav_rig.hpp) over a blackboard on
-// which every key it does not declare holds a value of a type no step uses (step_keys.hpp), so
-// reading or writing one throws, naming it. aim, project and next are checked the same way in
-// tests/core/head/test_behaviours.cpp.
+// navigation tests' in-process dry run (projtour_test/nav_rig.hpp) over a blackboard on which
+// every key it does not declare holds a value of a type no step uses
+// (projtour_test/step_keys.hpp), so reading or writing one throws, naming it. aim, project, next
+// and wait are checked the same way in test_aim_project_next.cpp.
 #include <gtest/gtest.h>
 
-#include "nav_rig.hpp"
 #include "projtour/contract/blackboard_keys.hpp"
 #include "projtour/head/kinematics.hpp"
+#include "projtour_test/nav_rig.hpp"
 #include "projtour_test/process.hpp"
-#include "step_keys.hpp"
+#include "projtour_test/step_keys.hpp"
 
 namespace projtour::nav_test {
 namespace {
@@ -57,7 +57,7 @@ TEST(StepKeys, Regression_NavigateReadsTheCalibrationItDeclares) {
   capture.base_estimate = rig.estimate();
   AlignResult aligned;
   aligned.joints = capture.joints;
-  const HeadKinematics head(rig.mission().robot);
+  const head::HeadKinematics head(rig.mission().robot);
   aligned.T_camera_model =
       (isometry_from_pose2d(capture.base_estimate.mean) * head.T_base_camera(capture.joints))
           .inverse() *
@@ -67,6 +67,19 @@ TEST(StepKeys, Regression_NavigateReadsTheCalibrationItDeclares) {
   ProjectorCalibration calibration;
   rig.blackboard().set(keys::kCalibration, std::move(calibration));
   run_poisoned(rig, step_keys, "navigate", &target, 5.0);
+
+  // The control: this set-up does take the reapproach path, which reads the calibration. With a
+  // Poison under that key too (as if it were undeclared), the same run throws naming it.
+  rig.blackboard().erase(keys::kCalibration);
+  rig.blackboard().set(
+      Key<test::Poison>{keys::kCalibration.name, KeyScope::tour, "an undeclared key"},
+      test::Poison{});
+  try {
+    rig.run("navigate", rig.defaults("navigate"), &target, 5.0);
+    ADD_FAILURE() << "navigate did not read the calibration: the reapproach path was not taken";
+  } catch (const BlackboardTypeError& e) {
+    EXPECT_NE(std::string(e.what()).find("calibration"), std::string::npos) << e.what();
+  }
 }
 
 // The declaration is what `projtour graph` draws: the demo mission's graph gained this edge

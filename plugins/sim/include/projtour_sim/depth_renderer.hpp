@@ -107,7 +107,8 @@ class Scene {
 class SceneBuilder {
  public:
   // A triangle mesh in its own frame, placed at T_world_mesh.
-  void add_mesh(const TriangleMesh& mesh, const Eigen::Isometry3d& T_world_mesh, int object_id);
+  void add_mesh(const perception::TriangleMesh& mesh, const Eigen::Isometry3d& T_world_mesh,
+                int object_id);
   // An oriented box centred at T_world_box's origin, axes along its rotation.
   void add_box(const Eigen::Isometry3d& T_world_box, const Eigen::Vector3d& half_extents_m,
                int object_id);

@@ -102,7 +102,7 @@ class SimWorld : public GroundTruth {
   // The target whose faults act now ("" when none).
   std::string active_target() const;
   // The surface the camera sees (model frame): the mission's mesh plus the model error.
-  const TriangleMesh& true_mesh(const std::string& target_id) const;
+  const perception::TriangleMesh& true_mesh(const std::string& target_id) const;
   // Teleports the true base (tests and the kidnap fault); odometry does not notice.
   void set_true_base_pose(const Pose2D& pose);
 

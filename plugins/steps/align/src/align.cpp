@@ -91,7 +91,7 @@ Settings read_settings(const Params& p) {
   return s;
 }
 
-std::string format_quality(const RegistrationResult& r) {
+std::string format_quality(const perception::RegistrationResult& r) {
   std::ostringstream s;
   s.precision(3);
   s << "inlier fraction " << r.inlier_fraction << ", RMSE " << r.rmse_mm << " mm, " << r.iterations
@@ -112,8 +112,8 @@ class Align : public Behaviour {
     if (models_.count(ctx.target->id) == 0) {
       models_.clear();
       auto cloud = std::make_shared<const ModelCloud>(
-          load_model_cloud(ctx.target->model, settings_.model_spacing_m));
-      models_[ctx.target->id] = {cloud, std::make_shared<const IcpModel>(*cloud)};
+          perception::load_model_cloud(ctx.target->model, settings_.model_spacing_m));
+      models_[ctx.target->id] = {cloud, std::make_shared<const perception::IcpModel>(*cloud)};
     }
   }
 
@@ -129,7 +129,7 @@ class Align : public Behaviour {
     }
     const DepthFrame& frame = captured->frame;
     const LoadedModel& loaded = models_.at(ctx.target->id);
-    const std::shared_ptr<const IcpModel>& model = loaded.icp;
+    const std::shared_ptr<const perception::IcpModel>& model = loaded.icp;
     const CameraSpec& camera = ctx.robot().camera;
 
     const auto started = std::chrono::steady_clock::now();
@@ -137,8 +137,9 @@ class Align : public Behaviour {
     out.model = loaded.cloud;
     out.joints = captured->joints;
     // The camera where it was when the frame was taken, not where it is now.
-    const Eigen::Isometry3d T_map_camera = isometry_from_pose2d(captured->base_estimate.mean) *
-                                           HeadKinematics(ctx.robot()).T_base_camera(out.joints);
+    const Eigen::Isometry3d T_map_camera =
+        isometry_from_pose2d(captured->base_estimate.mean) *
+        head::HeadKinematics(ctx.robot()).T_base_camera(out.joints);
     const Eigen::Isometry3d T_camera_model_guess = T_map_camera.inverse() * ctx.target->T_map_model;
     out.T_camera_model_guess = T_camera_model_guess;
     // A visit that has aligned already (after a re-approach, a re-aim, a re-capture) starts from
@@ -153,9 +154,9 @@ class Align : public Behaviour {
       T_camera_model_start =
           T_map_camera.inverse() * last_fit_->T_map_camera * *previous->T_camera_model;
     }
-    const OrganizedCloud scene =
-        crop_sphere(frame, camera.depth_to_color_m, T_camera_model_start.translation(),
-                    model->bounding_radius_m() + settings_.crop_margin_m);
+    const perception::OrganizedCloud scene =
+        perception::crop_sphere(frame, camera.depth_to_color_m, T_camera_model_start.translation(),
+                                model->bounding_radius_m() + settings_.crop_margin_m);
     const std::size_t scene_points = scene.valid_count();
     if (scene_points < static_cast<std::size_t>(settings_.min_points)) {
       bb.set(keys::kAlign, std::move(out));
@@ -167,7 +168,7 @@ class Align : public Behaviour {
       return Outcome{outcome::kNoTarget, why.str()};
     }
 
-    RegistrationResult result = register_scene(model, scene, T_camera_model_start);
+    perception::RegistrationResult result = register_scene(model, scene, T_camera_model_start);
     result.time_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started)
             .count();
@@ -195,10 +196,11 @@ class Align : public Behaviour {
   }
 
  private:
-  RegistrationResult register_scene(const std::shared_ptr<const IcpModel>& model,
-                                    const OrganizedCloud& scene, const Eigen::Isometry3d& guess) {
+  perception::RegistrationResult register_scene(
+      const std::shared_ptr<const perception::IcpModel>& model,
+      const perception::OrganizedCloud& scene, const Eigen::Isometry3d& guess) {
     if (settings_.method == Method::projective_icp) {
-      return align_projective_icp(*model, scene, guess, icp_options_);
+      return perception::align_projective_icp(*model, scene, guess, icp_options_);
     }
     PclOptions options;
     options.max_iterations = static_cast<int>(settings_.pcl_max_iterations);
@@ -208,9 +210,9 @@ class Align : public Behaviour {
     return pcl.align(scene, guess, icp_options_);
   }
 
-  void draw(Context& ctx, const DepthFrame& frame, const OrganizedCloud& scene,
-            const IcpModel& model, const Eigen::Isometry3d& guess,
-            const RegistrationResult* result) const {
+  void draw(Context& ctx, const DepthFrame& frame, const perception::OrganizedCloud& scene,
+            const perception::IcpModel& model, const Eigen::Isometry3d& guess,
+            const perception::RegistrationResult* result) const {
     if (ctx.target_dir.empty()) return;
     try {
       write_alignment_image(ctx.target_dir / "alignment.png", frame, scene, model, guess,
@@ -221,12 +223,12 @@ class Align : public Behaviour {
   }
 
   Settings settings_;
-  IcpOptions icp_options_;
+  perception::IcpOptions icp_options_;
   // The cloud is what align publishes (project's tracking fits the same points); the IcpModel
   // is its registration layout.
   struct LoadedModel {
     std::shared_ptr<const ModelCloud> cloud;
-    std::shared_ptr<const IcpModel> icp;
+    std::shared_ptr<const perception::IcpModel> icp;
   };
   std::map<std::string, LoadedModel> models_;
   // Where the camera was for the last good fit: the blackboard's AlignResult holds the pose in
@@ -241,7 +243,7 @@ class Align : public Behaviour {
 
 const projtour_param_desc kAlignParams[] = {
     {param::kMethod, "string", "projective_icp", "projective_icp | pcl_icp | pcl_gicp"},
-    {param::kModelSpacingM, "number", kDefaultModelSpacingM,
+    {param::kModelSpacingM, "number", perception::kDefaultModelSpacingM,
      "spacing of the points resampled on the model"},
     {param::kCropMarginM, "number", "0.1",
      "the frame is cropped to the model's bounding sphere plus this around the guess"},

@@ -50,8 +50,8 @@ void splat(cv::Mat& img, const View& view, const Eigen::Vector3f& p, const cv::V
   if (view.pixel(p, u, v)) img.at<cv::Vec3b>(v, u) = colour;
 }
 
-void draw_model(cv::Mat& img, const View& view, const IcpModel& model, const Eigen::Isometry3d& T,
-                const cv::Vec3b& colour) {
+void draw_model(cv::Mat& img, const View& view, const perception::IcpModel& model,
+                const Eigen::Isometry3d& T, const cv::Vec3b& colour) {
   const Eigen::Matrix3f R = T.linear().cast<float>();
   const Eigen::Vector3f t = T.translation().cast<float>();
   for (const auto& m : model.points()) splat(img, view, R * m + t, colour);
@@ -60,7 +60,8 @@ void draw_model(cv::Mat& img, const View& view, const IcpModel& model, const Eig
 }  // namespace
 
 void write_alignment_image(const std::filesystem::path& file, const DepthFrame& frame,
-                           const OrganizedCloud& scene, const IcpModel& model,
+                           const perception::OrganizedCloud& scene,
+                           const perception::IcpModel& model,
                            const Eigen::Isometry3d& T_camera_model_guess,
                            const Eigen::Isometry3d* T_camera_model_aligned) {
   constexpr int kPanel = 480;
@@ -95,7 +96,7 @@ void write_alignment_image(const std::filesystem::path& file, const DepthFrame& 
 
   for (const View* view : {static_cast<const View*>(&camera), static_cast<const View*>(&side)}) {
     for (const auto& p : scene.points) {
-      if (OrganizedCloud::valid(p)) splat(img, *view, p, kRed);
+      if (perception::OrganizedCloud::valid(p)) splat(img, *view, p, kRed);
     }
     draw_model(img, *view, model, T_camera_model_guess, kBlue);
     if (T_camera_model_aligned) draw_model(img, *view, model, *T_camera_model_aligned, kGreen);

@@ -12,7 +12,8 @@ namespace projtour::align {
 // `T_camera_model_aligned` null: no alignment to show (no target). Throws std::runtime_error
 // when the file cannot be written.
 void write_alignment_image(const std::filesystem::path& file, const DepthFrame& frame,
-                           const OrganizedCloud& scene, const IcpModel& model,
+                           const perception::OrganizedCloud& scene,
+                           const perception::IcpModel& model,
                            const Eigen::Isometry3d& T_camera_model_guess,
                            const Eigen::Isometry3d* T_camera_model_aligned);
 

@@ -30,13 +30,13 @@ const char* to_string(PclMethod method) {
 }
 
 struct PclRegistration::Impl {
-  std::shared_ptr<const IcpModel> model;
+  std::shared_ptr<const perception::IcpModel> model;
   PclMethod method;
   PclOptions options;
 };
 
-PclRegistration::PclRegistration(std::shared_ptr<const IcpModel> model, PclMethod method,
-                                 const PclOptions& options)
+PclRegistration::PclRegistration(std::shared_ptr<const perception::IcpModel> model,
+                                 PclMethod method, const PclOptions& options)
     : impl_(new Impl{std::move(model), method, options}) {}
 
 PclRegistration::~PclRegistration() = default;
@@ -53,16 +53,16 @@ void configure(Registration& reg, const PclOptions& options) {
 
 }  // namespace
 
-RegistrationResult PclRegistration::align(const OrganizedCloud& scene,
-                                          const Eigen::Isometry3d& T_camera_model_guess,
-                                          const IcpOptions& quality_options) const {
+perception::RegistrationResult PclRegistration::align(
+    const perception::OrganizedCloud& scene, const Eigen::Isometry3d& T_camera_model_guess,
+    const perception::IcpOptions& quality_options) const {
   const auto started = std::chrono::steady_clock::now();
   Cloud::Ptr target(new Cloud);
   target->reserve(scene.points.size());
   for (const Eigen::Vector3f& p : scene.points) {
-    if (OrganizedCloud::valid(p)) target->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+    if (perception::OrganizedCloud::valid(p)) target->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
   }
-  RegistrationResult result;
+  perception::RegistrationResult result;
   result.T_camera_model = T_camera_model_guess;
   if (target->size() < 10) {
     result.scene_points = target->size();
@@ -105,7 +105,7 @@ RegistrationResult PclRegistration::align(const OrganizedCloud& scene,
   }
   Eigen::Isometry3d T(final_transform.cast<double>());
   T.linear() = Eigen::Quaterniond(T.linear()).normalized().toRotationMatrix();
-  result = evaluate_alignment(*impl_->model, scene, T, quality_options);
+  result = perception::evaluate_alignment(*impl_->model, scene, T, quality_options);
   result.converged = converged;
   result.iterations = iterations;
   result.time_ms =

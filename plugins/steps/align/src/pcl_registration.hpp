@@ -23,7 +23,7 @@ struct PclOptions {
 
 class PclRegistration {
  public:
-  PclRegistration(std::shared_ptr<const IcpModel> model, PclMethod method,
+  PclRegistration(std::shared_ptr<const perception::IcpModel> model, PclMethod method,
                   const PclOptions& options = {});
   ~PclRegistration();
   PclRegistration(const PclRegistration&) = delete;
@@ -32,9 +32,9 @@ class PclRegistration {
   // Registers the model (source) against the scene's valid points (target) from the guess.
   // Quality (inlier fraction, RMSE) is measured as for the projective ICP, so one quality gate
   // serves every method; time_ms covers the conversion, the search trees and the solve.
-  RegistrationResult align(const OrganizedCloud& scene,
-                           const Eigen::Isometry3d& T_camera_model_guess,
-                           const IcpOptions& quality_options = {}) const;
+  perception::RegistrationResult align(const perception::OrganizedCloud& scene,
+                                       const Eigen::Isometry3d& T_camera_model_guess,
+                                       const perception::IcpOptions& quality_options = {}) const;
 
  private:
   struct Impl;

@@ -74,8 +74,8 @@ class Capture : public Behaviour {
     }
     if (frames_.size() >= static_cast<std::size_t>(settings_.average_frames)) {
       CapturedFrame captured;
-      captured.frame =
-          frames_.size() == 1 ? std::move(frames_.front()) : average_depth_frames(frames_);
+      captured.frame = frames_.size() == 1 ? std::move(frames_.front())
+                                           : perception::average_depth_frames(frames_);
       try {
         captured.joints = ctx.drivers().pan_tilt->measured();
       } catch (const DriverError& e) {

@@ -45,11 +45,11 @@ fs::path write_content(const fs::path& dir) {
 // Model Points on the mesh (vertices): a 4 x 4 cm patch of the rabbit's chest, flat enough that
 // a 2 cm sideways nudge keeps the rays on it. Corners as seen from the front, where the model's
 // +y is the viewer's right.
-Quad3d chest_quad(const TriangleMesh& mesh) {
+head::Quad3d chest_quad(const perception::TriangleMesh& mesh) {
   const std::array<Eigen::Vector2d, 4> yz = {
       Eigen::Vector2d(0.0, 0.09), Eigen::Vector2d(0.04, 0.09), Eigen::Vector2d(0.04, 0.05),
       Eigen::Vector2d(0.0, 0.05)};
-  Quad3d quad;
+  head::Quad3d quad;
   for (int i = 0; i < 4; ++i) {
     // The frontmost vertex near the wanted (y, z) lies on the surface the robot faces.
     std::optional<Eigen::Vector3d> best;
@@ -83,8 +83,8 @@ class DryRun {
       registry.load_library(fs::path(PROJTOUR_PLUGIN_BUILD_DIR) /
                             ("libprojtour_" + std::string(plugin) + ".so"));
     }
-    Diagnostics diag;
-    auto robot = load_robot(fs::path(PROJTOUR_SOURCE_DIR) / "examples/robot/ud.yaml", diag);
+    host::Diagnostics diag;
+    auto robot = host::load_robot(fs::path(PROJTOUR_SOURCE_DIR) / "examples/robot/ud.yaml", diag);
     if (!robot) throw std::runtime_error("cannot load examples/robot/ud.yaml");
     mission.name = "track-test";
     mission.robot = *robot;
@@ -92,12 +92,12 @@ class DryRun {
     target.id = "rabbit";
     target.model = fs::path(PROJTOUR_SOURCE_DIR) / "examples/models/bunny.ply";
     target.T_map_model = isometry_from_xyz_rpy(3.0, 0.0, 0.9, 0.0, 0.0, kPi);
-    target.model_points = chest_quad(load_mesh(target.model));
+    target.model_points = chest_quad(perception::load_mesh(target.model));
     target.content = write_content(dir_);
     target.dwell_s = kDwellS;
     mission.targets.push_back(target);
     // Already at the stand-off pose, as navigate leaves it.
-    mission.start = standoff_pose(target);
+    mission.start = navigation::standoff_pose(target);
     // The world file as a dry run reads it. The nudge is sideways to the robot's view (the
     // robot looks along the map's +x), kNudgeAfterS after the projector first lights the target.
     const fs::path world_file = dir_ / "world.yaml";
@@ -105,7 +105,7 @@ class DryRun {
         << (exact_calibration ? "calibration_error: {trans_mm: 0, rot_deg: 0}\n" : "")
         << "faults:\n  - {target: rabbit, type: target_nudge, after_s: " << kNudgeAfterS
         << ", distance_m: " << kNudgeM << ", direction_deg: 90}\n";
-    auto loaded = load_world(world_file, mission, diag);
+    auto loaded = host::load_world(world_file, mission, diag);
     if (!loaded) throw std::runtime_error("cannot load the world file: " + diag.format());
     world = *loaded;
 
@@ -136,7 +136,7 @@ class DryRun {
 
   std::shared_ptr<Behaviour> make(const std::string& kind,
                                   const std::map<std::string, ParamValue>& values = {}) {
-    auto params = std::make_unique<Params>(default_params(registry.require(kind).params));
+    auto params = std::make_unique<Params>(host::default_params(registry.require(kind).params));
     for (const auto& [name, value] : values) params->set(name, value);
     EXPECT_EQ(registry.validate_params(kind, *params), "");
     auto b = registry.create_behaviour(kind, *params, run);
@@ -168,7 +168,7 @@ class DryRun {
     const Eigen::Vector3d p_base =
         isometry_from_pose2d(mission.start).inverse() * (target.T_map_model * centre_model);
     std::string why;
-    const auto q = HeadKinematics(mission.robot).aim_projector_at(p_base, &why);
+    const auto q = head::HeadKinematics(mission.robot).aim_projector_at(p_base, &why);
     if (!q) throw std::runtime_error("cannot aim: " + why);
     drivers.pan_tilt->command(*q);
     for (int i = 0; i < 300 && !drivers.pan_tilt->reached(); ++i) step();
@@ -223,10 +223,10 @@ class DryRun {
   }
 
   // First, so it is destroyed last: blackboard values set by a plugin keep code of that plugin.
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   test::RunRig rig;
   MissionSpec& mission = rig.mission;
-  WorldSpec& world = rig.world;
+  host::WorldSpec& world = rig.world;
   RunContext& run = rig.run;
   DriverSet& drivers = rig.drivers;
   Blackboard& blackboard = rig.blackboard;
@@ -240,7 +240,7 @@ class DryRun {
   template <typename D>
   std::shared_ptr<D> driver(const std::string& kind,
                             const std::map<std::string, ParamValue>& values = {}) {
-    Params params = default_params(registry.require(kind).params);
+    Params params = host::default_params(registry.require(kind).params);
     for (const auto& [name, value] : values) params.set(name, value);
     auto d = std::dynamic_pointer_cast<D>(registry.create_driver(kind, params, run));
     if (!d) throw std::runtime_error(kind + " is not the driver expected");
@@ -378,10 +378,10 @@ TEST(Track, FramesFailingTheGateAreNotFollowed) {
 }
 
 TEST(Track, ParametersAreCheckedAtLoad) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(fs::path(PROJTOUR_PLUGIN_BUILD_DIR) / "libprojtour_project.so");
   const auto with = [&](const std::string& name, ParamValue value) {
-    Params p = default_params(registry.require("project").params);
+    Params p = host::default_params(registry.require("project").params);
     p.set("track", true);
     p.set(name, value);
     return registry.validate_params("project", p);

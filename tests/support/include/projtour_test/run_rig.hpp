@@ -66,7 +66,7 @@ class RunRig {
   void advance_to(double t_s);
 
   MissionSpec mission;
-  WorldSpec world;
+  host::WorldSpec world;
   DriverSet drivers;
   Blackboard blackboard;
   SteppedClock clock;

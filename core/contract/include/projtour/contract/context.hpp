@@ -19,8 +19,10 @@ class COccupancyGridMap2D;
 
 namespace projtour {
 
+namespace host {
 // Only the simulated drivers read the world (host's world.hpp); everyone else sees a pointer.
 struct WorldSpec;
+}  // namespace host
 
 class CancelToken {
  public:
@@ -69,7 +71,7 @@ class StateTimer {
 // Fixed for the whole run.
 struct RunContext {
   const MissionSpec* mission = nullptr;
-  const WorldSpec* world = nullptr;  // dry run only
+  const host::WorldSpec* world = nullptr;  // dry run only
   bool dry_run = false;
   std::uint64_t seed = 1;
   std::filesystem::path run_dir;

@@ -15,7 +15,7 @@
 #include "projtour/contract/drivers.hpp"
 #include "projtour/contract/robot.hpp"
 
-namespace projtour {
+namespace projtour::head {
 
 class HeadKinematics {
  public:
@@ -86,4 +86,4 @@ std::optional<Eigen::Isometry3d> aligned_T_base_model(const RobotSpec& robot,
                                                       const CapturedFrame* capture,
                                                       const Pose2D& T_map_base_now);
 
-}  // namespace projtour
+}  // namespace projtour::head

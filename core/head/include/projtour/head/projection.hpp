@@ -11,7 +11,7 @@
 
 #include "projtour/contract/pinhole.hpp"
 
-namespace projtour {
+namespace projtour::head {
 
 using Quad2d = std::array<Eigen::Vector2d, 4>;
 using Quad3d = std::array<Eigen::Vector3d, 4>;
@@ -88,4 +88,4 @@ class ContentWarper {
   cv::Rect content_reach() const;
 };
 
-}  // namespace projtour
+}  // namespace projtour::head

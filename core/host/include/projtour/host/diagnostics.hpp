@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-namespace projtour {
+namespace projtour::host {
 
 // 1-based line and column; 0 means unknown (the file as a whole).
 struct SourceMark {
@@ -56,4 +56,4 @@ class InputError : public std::runtime_error {
 // Closest candidate within a small edit distance, or "" (for "did you mean").
 std::string closest_match(const std::string& word, const std::vector<std::string>& candidates);
 
-}  // namespace projtour
+}  // namespace projtour::host

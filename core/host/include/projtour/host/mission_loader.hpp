@@ -15,7 +15,7 @@
 #include "projtour/host/diagnostics.hpp"
 #include "projtour/host/world.hpp"
 
-namespace projtour {
+namespace projtour::host {
 
 // A kind to instantiate with its (not yet schema-checked) parameters, and where it was written.
 struct PluginInstanceSpec {
@@ -96,4 +96,4 @@ std::optional<LoadedMission> load_mission_from_string(const std::string& text,
 // Throwing forms: InputError carrying every diagnostic.
 LoadedMission load_mission_or_throw(const std::filesystem::path& file);
 
-}  // namespace projtour
+}  // namespace projtour::host

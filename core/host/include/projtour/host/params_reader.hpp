@@ -6,7 +6,7 @@
 #include "projtour/contract/params.hpp"
 #include "projtour/host/yaml_reader.hpp"
 
-namespace projtour {
+namespace projtour::host {
 
 // Reads `field` (a mapping, or absent) against `schema`: unknown names, wrong types and
 // missing required values become diagnostics; defaults fill the rest.
@@ -14,4 +14,4 @@ Params read_params(const std::vector<ParamSpec>& schema, const YamlField& field)
 // Defaults only (throws std::invalid_argument if a required parameter has none).
 Params default_params(const std::vector<ParamSpec>& schema);
 
-}  // namespace projtour
+}  // namespace projtour::host

@@ -13,7 +13,7 @@
 #include "projtour/contract/params.hpp"
 #include "projtour/contract/plugin_abi.h"
 
-namespace projtour {
+namespace projtour::host {
 
 // Anything wrong with a plugin; the message names the file (and the kind where there is one).
 class PluginError : public std::runtime_error {
@@ -115,4 +115,4 @@ class PluginRegistry {
   std::map<std::string, std::shared_ptr<PluginLibrary>> libraries_;  // by canonical path
 };
 
-}  // namespace projtour
+}  // namespace projtour::host

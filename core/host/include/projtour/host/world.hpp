@@ -11,7 +11,7 @@
 #include "projtour/contract/geometry.hpp"
 #include "projtour/host/diagnostics.hpp"
 
-namespace projtour {
+namespace projtour::host {
 
 // Faults a dry run injects for one target (world file).
 struct FaultSpec {
@@ -131,4 +131,4 @@ struct WorldSpec {
   CrowdSpec people;
 };
 
-}  // namespace projtour
+}  // namespace projtour::host

@@ -9,7 +9,7 @@
 
 #include "projtour/host/world.hpp"
 
-namespace projtour {
+namespace projtour::host {
 
 // What a fault number may be; the loader says so at the number's file:line:col.
 enum class FaultNumberSign { any, positive, non_negative };
@@ -37,4 +37,4 @@ double fault_default(const std::string& type, const std::string& key);
 // The fault's number as written, else the table's default for its type.
 double fault_number(const FaultSpec& fault, const std::string& key);
 
-}  // namespace projtour
+}  // namespace projtour::host

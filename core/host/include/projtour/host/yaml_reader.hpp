@@ -11,7 +11,7 @@
 
 #include "projtour/host/diagnostics.hpp"
 
-namespace projtour {
+namespace projtour::host {
 
 // Parses a YAML file; a missing file or a syntax error becomes a diagnostic and a null node.
 std::optional<YAML::Node> load_yaml_file(const std::filesystem::path& file, Diagnostics& diag);
@@ -83,4 +83,4 @@ class YamlField {
   Diagnostics* diag_;
 };
 
-}  // namespace projtour
+}  // namespace projtour::host

@@ -30,7 +30,7 @@ namespace mrpt::obs {
 class CObservation2DRangeScan;
 }
 
-namespace projtour {
+namespace projtour::navigation {
 
 struct LocalizerOptions {
   int particles = 1000;
@@ -136,4 +136,4 @@ std::vector<Eigen::Vector2d> scan_endpoints_m(const Pose2D& T_map_base,
                                               const mrpt::obs::CObservation2DRangeScan& scan,
                                               std::size_t step = 1);
 
-}  // namespace projtour
+}  // namespace projtour::navigation

@@ -12,7 +12,7 @@ namespace mrpt::maps {
 class COccupancyGridMap2D;
 }
 
-namespace projtour {
+namespace projtour::navigation {
 
 // ROS map_server YAML (+ PGM/PNG) or MRPT .gridmap / .gridmap.gz. Throws std::runtime_error
 // naming the file when it cannot be read.
@@ -41,4 +41,4 @@ struct MapProblem {
 std::vector<MapProblem> check_mission_on_map(const MissionSpec& mission,
                                              const mrpt::maps::COccupancyGridMap2D& map);
 
-}  // namespace projtour
+}  // namespace projtour::navigation

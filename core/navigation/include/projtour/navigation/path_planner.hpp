@@ -11,7 +11,7 @@ namespace mrpt::maps {
 class COccupancyGridMap2D;
 }
 
-namespace projtour {
+namespace projtour::navigation {
 
 // Cells with a free probability above this are free space; occupied and unknown cells are not.
 inline constexpr float kFreeCellThreshold = 0.6f;
@@ -95,4 +95,4 @@ class PathPlanner {
   InflatedGrid grid_;
 };
 
-}  // namespace projtour
+}  // namespace projtour::navigation

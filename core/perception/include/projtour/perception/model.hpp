@@ -6,7 +6,7 @@
 
 #include "projtour/contract/model_cloud.hpp"
 
-namespace projtour {
+namespace projtour::perception {
 
 struct TriangleMesh {
   std::vector<Eigen::Vector3f> vertices;   // metres, model frame
@@ -28,4 +28,4 @@ inline constexpr const char* kDefaultModelSpacingM = "0.003";
 // Same, from a mesh in memory (deterministic for a given seed).
 ModelCloud sample_mesh(const TriangleMesh& mesh, double spacing_m, unsigned seed = 1);
 
-}  // namespace projtour
+}  // namespace projtour::perception

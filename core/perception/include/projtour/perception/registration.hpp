@@ -10,7 +10,7 @@
 #include "projtour/contract/depth_frame.hpp"
 #include "projtour/perception/model.hpp"
 
-namespace projtour {
+namespace projtour::perception {
 
 // Points in the camera frame laid out like (a window of) the depth image they came from.
 // "Camera frame" is the depth optical frame moved by the depth-colour offset (the paper's eq. 2),
@@ -162,4 +162,4 @@ PoseSpread pose_spread(const IcpModel& model, const OrganizedCloud& scene,
                        const std::vector<Eigen::Vector3d>& points_model, double block_m = 0.04,
                        const IcpOptions& options = {});
 
-}  // namespace projtour
+}  // namespace projtour::perception

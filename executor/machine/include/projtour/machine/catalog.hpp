@@ -18,7 +18,7 @@ class BehaviourCatalog {
  public:
   virtual ~BehaviourCatalog();
   // Any family (so "sim_base used as a behaviour" can be told apart from "unknown").
-  virtual const KindInfo* find(const std::string& kind) const = 0;
+  virtual const host::KindInfo* find(const std::string& kind) const = 0;
   virtual std::vector<std::string> kind_names() const = 0;
   // "" when fine, else why the values are wrong (the kind's own validate()).
   virtual std::string validate_params(const std::string& kind, const Params& params) const = 0;
@@ -27,20 +27,20 @@ class BehaviourCatalog {
                                                       const RunContext& run) const = 0;
 };
 
-bool kind_declares_outcome(const KindInfo& kind, const std::string& outcome);
+bool kind_declares_outcome(const host::KindInfo& kind, const std::string& outcome);
 
 // The plugins a run loaded.
 class RegistryCatalog : public BehaviourCatalog {
  public:
-  explicit RegistryCatalog(const PluginRegistry& registry) : registry_(registry) {}
-  const KindInfo* find(const std::string& kind) const override;
+  explicit RegistryCatalog(const host::PluginRegistry& registry) : registry_(registry) {}
+  const host::KindInfo* find(const std::string& kind) const override;
   std::vector<std::string> kind_names() const override;
   std::string validate_params(const std::string& kind, const Params& params) const override;
   std::shared_ptr<Behaviour> create_behaviour(const std::string& kind, const Params& params,
                                               const RunContext& run) const override;
 
  private:
-  const PluginRegistry& registry_;
+  const host::PluginRegistry& registry_;
 };
 
 // Behaviour kinds defined in the calling program.
@@ -52,9 +52,9 @@ class InProcessCatalog : public BehaviourCatalog {
 
   void add(const std::string& kind, std::vector<std::string> outcomes,
            std::vector<ParamSpec> params, Factory factory, Validator validator = nullptr,
-           std::vector<KeyUse> keys = {});
+           std::vector<host::KeyUse> keys = {});
 
-  const KindInfo* find(const std::string& kind) const override;
+  const host::KindInfo* find(const std::string& kind) const override;
   std::vector<std::string> kind_names() const override;
   std::string validate_params(const std::string& kind, const Params& params) const override;
   std::shared_ptr<Behaviour> create_behaviour(const std::string& kind, const Params& params,
@@ -62,7 +62,7 @@ class InProcessCatalog : public BehaviourCatalog {
 
  private:
   struct Entry {
-    KindInfo info;
+    host::KindInfo info;
     Factory factory;
     Validator validator;
   };

@@ -33,8 +33,8 @@ struct ExecutorOptions {
   double cancel_grace_s = 2.0;
   // All day (README "All day"): the mission's schedule and each target's hours and content list,
   // by target index (empty: none has either). The defaults are one unnumbered pass.
-  MissionSchedule schedule;
-  std::vector<TargetTimes> target_times;
+  host::MissionSchedule schedule;
+  std::vector<host::TargetTimes> target_times;
   // Seconds after local midnight at mission time 0; hours and until are read against it.
   double time_of_day_at_zero_s = 0.0;
 };
@@ -48,7 +48,8 @@ struct ServiceInstance {
 // ExecutorOptions::time_of_day_at_zero_s for a run whose clock reads `mission_now_s` now: in a
 // dry run the schedule's start (mission time 0 at start, so a resume goes on from the time of
 // day it stopped at), on the robot the wall clock's local time of day.
-double time_of_day_at_zero_s(const MissionSchedule& schedule, bool dry_run, double mission_now_s);
+double time_of_day_at_zero_s(const host::MissionSchedule& schedule, bool dry_run,
+                             double mission_now_s);
 
 using BehaviourInstances = std::map<std::string, std::shared_ptr<Behaviour>>;  // by leaf path
 
@@ -232,7 +233,7 @@ class Executor {
   double next_round_s_ = 0.0;
   std::optional<TargetSpec> visit_target_;  // the target as this visit shows it (content rotated)
   std::uint64_t leaf_entry_writes_ = 0;     // blackboard writes before the leaf started
-  std::unique_ptr<PathPlanner> planner_;    // order: nearest, on the run's map
+  std::unique_ptr<navigation::PathPlanner> planner_;  // order: nearest, on the run's map
   double start_s_ = 0.0;
   long long ticks_ = 0;
 };

@@ -43,7 +43,7 @@ struct TransitionSpec {
   std::string outcome;
   std::vector<std::string> targets;  // one, or a retry list
   bool retry = false;                // written as a list: uses the chosen state's retries
-  SourceMark mark;
+  host::SourceMark mark;
   std::string field_path;
 };
 
@@ -54,7 +54,7 @@ struct StateSpec {
   std::string path;  // "tour/visit/align"
   StateType type = StateType::leaf;
   const StateSpec* parent = nullptr;
-  SourceMark mark;
+  host::SourceMark mark;
   std::string field_path;  // "states.visit.states.align"
 
   // Leaf.
@@ -106,12 +106,12 @@ class Machine {
 // deep, and the proof that the machine ends: no cycle of plain transitions (a cycle must go
 // through a retry list, which the states' retries bound), and every state has a way to
 // finish, skip_target, defer_target or abort on outcomes other than `failed`.
-std::optional<Machine> load_machine(const YamlField& field, const BehaviourCatalog& catalog,
-                                    Diagnostics& diag);
+std::optional<Machine> load_machine(const host::YamlField& field, const BehaviourCatalog& catalog,
+                                    host::Diagnostics& diag);
 // `machine:` of a mission: the default, an inline mapping or a file (already read by the loader).
 // A mission always has targets, so its machine must also have a for_each: target state.
-std::optional<Machine> load_machine(const MachineSource& source, const BehaviourCatalog& catalog,
-                                    Diagnostics& diag);
+std::optional<Machine> load_machine(const host::MachineSource& source,
+                                    const BehaviourCatalog& catalog, host::Diagnostics& diag);
 
 // The default machine (default_machine.yaml, docs/machine.md) as YAML, parsed by the same loader.
 const std::string& default_machine_yaml();
@@ -123,7 +123,7 @@ inline constexpr const char* kDefaultMachineFile = "<default machine>";
 // start clears what the states wrote. Readers and writers of one key must agree on its type.
 // Each problem is recorded at the reading state's line.
 void check_machine_data(const Machine& machine, const BehaviourCatalog& catalog,
-                        const std::vector<KeyUse>& service_writes, Diagnostics& diag);
+                        const std::vector<host::KeyUse>& service_writes, host::Diagnostics& diag);
 
 // Graphviz dot: composites as clusters, reserved targets as terminal nodes, and (with a catalog)
 // dotted data edges from each state writing a key to each state reading it.

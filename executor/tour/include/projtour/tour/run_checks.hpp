@@ -27,6 +27,6 @@ inline constexpr std::size_t kMaxModelTriangles = 10'000'000;
 
 // Every problem as a diagnostic at the mission field it concerns (targets[i].model, .content,
 // .model_points, .standoff_m).
-void check_run_assets(const LoadedMission& mission, Diagnostics& diag);
+void check_run_assets(const host::LoadedMission& mission, host::Diagnostics& diag);
 
 }  // namespace projtour

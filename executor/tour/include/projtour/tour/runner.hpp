@@ -64,9 +64,9 @@ struct InstanceChoice {
 
 // Everything checked before anything moves.
 struct PreparedRun {
-  LoadedMission mission;
-  std::optional<WorldSpec> world;
-  std::unique_ptr<PluginRegistry> registry;
+  host::LoadedMission mission;
+  std::optional<host::WorldSpec> world;
+  std::unique_ptr<host::PluginRegistry> registry;
   std::unique_ptr<RegistryCatalog> catalog;
   std::optional<Machine> machine;
   std::shared_ptr<mrpt::maps::COccupancyGridMap2D> map;
@@ -81,11 +81,12 @@ enum class PrepareDepth { machine, everything };
 // (graph); everything adds drivers, services and the map.
 // Each way the mission does not fit its map, as a diagnostic at the line of the field it
 // concerns (or of the field it falls back on when that one was not written).
-void report_map_problems(const LoadedMission& mission, const std::vector<MapProblem>& problems,
-                         Diagnostics& diag);
+void report_map_problems(const host::LoadedMission& mission,
+                         const std::vector<navigation::MapProblem>& problems,
+                         host::Diagnostics& diag);
 
 std::unique_ptr<PreparedRun> prepare_run(const RunOptions& options, PrepareDepth depth,
-                                         Diagnostics& diag);
+                                         host::Diagnostics& diag);
 
 // The subcommands; each returns the process exit status.
 int run_command(const RunOptions& options, std::ostream& out, std::ostream& err);

@@ -5,11 +5,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
-#include "../../plugins/steps/step_keys.hpp"
 #include "projtour/contract/blackboard_keys.hpp"
 #include "projtour/head/kinematics.hpp"
 #include "projtour/head/projection.hpp"
-#include "rig.hpp"
+#include "projtour_test/geometry_rig.hpp"
+#include "projtour_test/step_keys.hpp"
 
 using namespace projtour;
 using namespace projtour::geometry_test;
@@ -28,7 +28,7 @@ PoseEstimate2D estimate_at(const Pose2D& p) {
 // Aims the head (instantly) and puts the exact aligned pose on the blackboard.
 void aim_and_align(Rig& rig, const Eigen::Isometry3d& model_error = Eigen::Isometry3d::Identity()) {
   const TargetSpec& t = *rig.ctx.target;
-  const HeadKinematics k(rig.mission.robot);
+  const head::HeadKinematics k(rig.mission.robot);
   const Eigen::Vector3d p_base =
       isometry_from_pose2d(kBase).inverse() * t.T_map_model.translation();
   const auto q = k.aim_projector_at(p_base);
@@ -75,7 +75,7 @@ TEST(Aim, PutsTheModelPointsCentroidOnTheProjectorAxisWithProjectorBlank) {
   for (const auto& p : t.model_points) centroid += p / 4.0;
   const Eigen::Vector3d p_projector =
       (isometry_from_pose2d(kBase) *
-       HeadKinematics(rig.mission.robot).T_base_projector(rig.pan_tilt->commands[0]))
+       head::HeadKinematics(rig.mission.robot).T_base_projector(rig.pan_tilt->commands[0]))
           .inverse() *
       (t.T_map_model * centroid);
   EXPECT_GT(p_projector.z(), 2.0);
@@ -125,11 +125,11 @@ TEST(Project, ShowsContentOnTheModelPointsForTheDwellThenBlanks) {
 
   ASSERT_TRUE(projected(rig).pixels_after_align);
   ASSERT_TRUE(projected(rig).pixels_before_align);
-  const Quad2d after = *projected(rig).pixels_after_align;
-  const Quad2d before = *projected(rig).pixels_before_align;
+  const head::Quad2d after = *projected(rig).pixels_after_align;
+  const head::Quad2d before = *projected(rig).pixels_before_align;
   EXPECT_GT((after[0] - before[0]).norm(), 5.0);  // the guess was off by 3 cm
   // The exact pixels of the Model Points, computed independently here.
-  const HeadKinematics k(rig.mission.robot);
+  const head::HeadKinematics k(rig.mission.robot);
   const Eigen::Isometry3d T_projector_model = k.T_projector_camera(rig.pan_tilt->measured_) *
                                               *rig.blackboard.find(keys::kAlign)->T_camera_model;
   const cv::Mat& frame = rig.projector->frames[0];

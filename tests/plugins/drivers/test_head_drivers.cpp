@@ -8,8 +8,8 @@
 
 #include "projtour/contract/drivers.hpp"
 #include "projtour/host/params_reader.hpp"
+#include "projtour_test/geometry_rig.hpp"
 #include "projtour_test/scoped_state.hpp"
-#include "rig.hpp"
 
 using namespace projtour;
 using namespace projtour::geometry_test;
@@ -18,8 +18,8 @@ namespace {
 
 std::shared_ptr<Driver> make_driver(Rig& rig, const std::string& kind,
                                     const std::map<std::string, ParamValue>& overrides = {}) {
-  const KindInfo& info = rig.registry.require(kind);
-  auto p = std::make_unique<Params>(default_params(info.params));
+  const host::KindInfo& info = rig.registry.require(kind);
+  auto p = std::make_unique<Params>(host::default_params(info.params));
   for (const auto& [name, value] : overrides) p->set(name, value);
   auto d = rig.registry.create_driver(kind, *p, rig.run_ctx);
   rig.params_keep.push_back(std::move(p));
@@ -88,8 +88,8 @@ TEST(PtuDPerception, AbsentPortIsNamedInTheError) {
 
 TEST(PtuDPerception, SignsMustBeUnit) {
   Rig rig;
-  const KindInfo& info = rig.registry.require("ptu_dperception");
-  Params p = default_params(info.params);
+  const host::KindInfo& info = rig.registry.require("ptu_dperception");
+  Params p = host::default_params(info.params);
   p.set("tilt_sign", 2.0);
   EXPECT_NE(rig.registry.validate_params("ptu_dperception", p), "");
 }

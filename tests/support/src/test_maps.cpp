@@ -1,4 +1,4 @@
-#include "test_maps.hpp"
+#include "projtour_test/test_maps.hpp"
 
 #include <mrpt/maps/COccupancyGridMap2D.h>
 
@@ -30,7 +30,7 @@ std::filesystem::path write_corridor_map(const std::filesystem::path& dir) {
   fill(m, 9.9, 5.9, 14.1, 10.1, 0.0f);  // the closed room's walls
   fill(m, 10.0, 6.0, 14.0, 10.0, 1.0f);
   const auto file = dir / "corridor.yaml";
-  save_occupancy_grid_yaml(m, file);
+  navigation::save_occupancy_grid_yaml(m, file);
   return file;
 }
 
@@ -47,7 +47,7 @@ std::filesystem::path write_loop_map(const std::filesystem::path& dir) {
     fill(m, x + 1.5, 7.7, x + 1.8, 8.0, 0.0f);
   }
   const auto file = dir / "loop.yaml";
-  save_occupancy_grid_yaml(m, file);
+  navigation::save_occupancy_grid_yaml(m, file);
   return file;
 }
 

@@ -39,8 +39,9 @@ inline Eigen::Isometry3d T_camera_model_facing(double distance_m, double height_
 
 // `mesh` standing on a floor (at its lowest point), seen by the depth camera at
 // T_depth_model, with (or without) Kinect noise.
-inline DepthFrame render_on_floor(const TriangleMesh& mesh, const Eigen::Isometry3d& T_depth_model,
-                                  bool kinect_noise, unsigned seed) {
+inline DepthFrame render_on_floor(const perception::TriangleMesh& mesh,
+                                  const Eigen::Isometry3d& T_depth_model, bool kinect_noise,
+                                  unsigned seed) {
   sim::SceneBuilder builder;
   builder.add_mesh(mesh, Eigen::Isometry3d::Identity(), 1);
   float z_min = 0.0f;

@@ -5,12 +5,12 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "nav_rig.hpp"
 #include "projtour/contract/blackboard_keys.hpp"
 #include "projtour/navigation/localizer.hpp"
 #include "projtour/navigation/occupancy_map.hpp"
+#include "projtour_test/nav_rig.hpp"
 #include "projtour_test/temp_dir.hpp"
-#include "test_maps.hpp"
+#include "projtour_test/test_maps.hpp"
 
 namespace projtour::nav_test {
 namespace {
@@ -33,7 +33,7 @@ TEST_P(NavigateCorridors, ReachesStandoffPoseOnTheDemoMap) {
   Rig rig(kDemoMap, start, 7);
   rig.idle(1.0);
   const TargetSpec target = target_for_goal("t", GetParam().goal);
-  const Pose2D goal = standoff_pose(target);
+  const Pose2D goal = navigation::standoff_pose(target);
   ASSERT_NEAR(goal.x_m, GetParam().goal.x_m, 1e-9);
 
   const auto outcome = rig.run("navigate", rig.defaults("navigate"), &target, 400.0);
@@ -162,7 +162,8 @@ TEST(NavigateOutcomes, ReplansAroundAnObstacleTheMapDoesNotHave) {
   rig.world().add_box(14.0, 1.0, 14.4, 1.85);
   rig.idle(0.5);
   const TargetSpec target = target_for_goal("far", {20.0, 2.0, 0.0});
-  const auto first_plan_clear = PathPlanner(rig.map(), 0.35).plan({3.0, 2.0}, {20.0, 2.0});
+  const auto first_plan_clear =
+      navigation::PathPlanner(rig.map(), 0.35).plan({3.0, 2.0}, {20.0, 2.0});
   ASSERT_TRUE(first_plan_clear.has_value());
   const auto outcome = rig.run("navigate", rig.defaults("navigate"), &target, 120.0);
   ASSERT_TRUE(outcome.has_value());
@@ -174,7 +175,7 @@ TEST(NavigateOutcomes, ReplansAroundAnObstacleTheMapDoesNotHave) {
       EXPECT_GT(p.y_m, 1.85 + 0.35) << p.x_m << ", " << p.y_m;
     }
   }
-  EXPECT_LT(distance_m(rig.truth(), standoff_pose(target)), 0.15);
+  EXPECT_LT(distance_m(rig.truth(), navigation::standoff_pose(target)), 0.15);
 }
 
 // The loop map with its lower corridor closed by a box the robot's map lacks, and a goal beyond
@@ -209,7 +210,7 @@ TEST_F(ClosedLowerCorridor, ADetourLongerThanThePathLeftIsProgressNotBlocked) {
   const auto outcome = drive();
   ASSERT_TRUE(outcome.has_value());
   EXPECT_EQ(outcome->name, "succeeded") << outcome->message;
-  EXPECT_LT(distance_m(rig_.truth(), standoff_pose(target_)), 0.15);
+  EXPECT_LT(distance_m(rig_.truth(), navigation::standoff_pose(target_)), 0.15);
   const auto& path = last_plan();
   EXPECT_TRUE(std::any_of(path.begin(), path.end(), [](const Pose2D& p) { return p.y_m > 6.0; }))
       << "the last plan goes round by the upper corridor";
@@ -246,7 +247,7 @@ TEST(NavigateOutcomes, SomethingBesideTheRobotDoesNotHoldItWhenThePathLeadsAway)
   const auto outcome = rig.run("navigate", params, &target, 60.0);
   ASSERT_TRUE(outcome.has_value());
   EXPECT_EQ(outcome->name, "succeeded") << outcome->message;
-  EXPECT_LT(distance_m(rig.truth(), standoff_pose(target)), 0.15);
+  EXPECT_LT(distance_m(rig.truth(), navigation::standoff_pose(target)), 0.15);
 }
 
 TEST(NavigateOutcomes, TimeoutWhenTheGoalIsTooFarForTheTime) {
@@ -268,7 +269,7 @@ TEST(NavigateOutcomes, LostWhenTheParticleCloudIsSpreadOut) {
   rig.idle(0.5);
   rig.blackboard().set(keys::kLocalizationWiden, 3.0);
   rig.step();  // the service widens the cloud
-  ASSERT_GT(position_std_m(rig.estimate()), 0.5);
+  ASSERT_GT(navigation::position_std_m(rig.estimate()), 0.5);
   const TargetSpec target = target_for_goal("far", {25.0, 2.0, 0.0});
   const auto outcome = rig.run("navigate", rig.defaults("navigate"), &target, 10.0);
   ASSERT_TRUE(outcome.has_value());

@@ -17,15 +17,15 @@ TEST(MrptSensor, AbsentSerialDeviceIsAnErrorNamingThePort) {
   const auto ini = dir / "laser.ini";
   std::ofstream(ini) << "[LASER_2D]\ndriver = CHokuyoURG\nprocess_rate = 10\n"
                         "sensorLabel = HOKUYO\nCOM_port_LIN = /dev/ttyProjtourAbsent0\n";
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_mrpt_sensor.so");
-  Params params = default_params(registry.require("mrpt_sensor").params);
+  Params params = host::default_params(registry.require("mrpt_sensor").params);
   params.set("ini", ini.string());
   const test::RunRig rig{test::RunRig::RunDir::none};
   try {
     registry.create_driver("mrpt_sensor", params, rig.run);
     FAIL() << "expected the driver to fail without a device";
-  } catch (const PluginError& e) {
+  } catch (const host::PluginError& e) {
     const std::string message = e.what();
     EXPECT_NE(message.find("/dev/ttyProjtourAbsent0"), std::string::npos) << message;
     EXPECT_NE(message.find("mrpt_sensor: cannot open CHokuyoURG (COM_port_LIN = "
@@ -38,15 +38,15 @@ TEST(MrptSensor, AbsentSerialDeviceIsAnErrorNamingThePort) {
 }
 
 TEST(MrptSensor, UnknownDriverAndMissingIniAreErrors) {
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   registry.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_mrpt_sensor.so");
-  Params params = default_params(registry.require("mrpt_sensor").params);
+  Params params = host::default_params(registry.require("mrpt_sensor").params);
   params.set("ini", std::string("/nonexistent/laser.ini"));
   const test::RunRig rig{test::RunRig::RunDir::none};
   try {
     registry.create_driver("mrpt_sensor", params, rig.run);
     FAIL();
-  } catch (const PluginError& e) {
+  } catch (const host::PluginError& e) {
     EXPECT_NE(std::string(e.what()).find("ini file /nonexistent/laser.ini not found"),
               std::string::npos)
         << e.what();
@@ -58,7 +58,7 @@ TEST(MrptSensor, UnknownDriverAndMissingIniAreErrors) {
   try {
     registry.create_driver("mrpt_sensor", params, rig.run);
     FAIL();
-  } catch (const PluginError& e) {
+  } catch (const host::PluginError& e) {
     EXPECT_NE(std::string(e.what()).find("unknown MRPT sensor driver \"CNoSuchScanner\""),
               std::string::npos)
         << e.what();

@@ -28,16 +28,16 @@ class StepKeys {
   // `step` is the kind under test; `running_beside`, kinds (services) that run with it.
   StepKeys(const std::filesystem::path& plugin_dir, const std::string& step,
            const std::vector<std::string>& running_beside = {}) {
-    PluginRegistry registry;
+    host::PluginRegistry registry;
     registry.load_directories({plugin_dir});
     declared_ = registry.require(step).keys;
     std::set<std::string> spared;
-    for (const KeyUse& use : declared_) spared.insert(use.name);
+    for (const host::KeyUse& use : declared_) spared.insert(use.name);
     for (const std::string& kind : running_beside) {
-      for (const KeyUse& use : registry.require(kind).keys) spared.insert(use.name);
+      for (const host::KeyUse& use : registry.require(kind).keys) spared.insert(use.name);
     }
-    for (const KindInfo* kind : registry.kinds()) {
-      for (const KeyUse& use : kind->keys) {
+    for (const host::KindInfo* kind : registry.kinds()) {
+      for (const host::KeyUse& use : kind->keys) {
         if (spared.count(use.name) == 0) poisoned_.insert(use.name);
       }
     }
@@ -55,9 +55,9 @@ class StepKeys {
   // The declared writes the step made since `writes_before` (Blackboard::writes()).
   std::set<std::string> written_since(const Blackboard& board, std::uint64_t writes_before) const {
     std::set<std::string> written;
-    for (const KeyUse& use : declared_) {
+    for (const host::KeyUse& use : declared_) {
       const Key<Poison> key{use.name.c_str(), KeyScope::visit, ""};
-      if (use.access == KeyAccess::write && board.version(key) > writes_before) {
+      if (use.access == host::KeyAccess::write && board.version(key) > writes_before) {
         written.insert(use.name);
       }
     }
@@ -65,15 +65,15 @@ class StepKeys {
   }
   std::set<std::string> declared_writes() const {
     std::set<std::string> out;
-    for (const KeyUse& use : declared_) {
-      if (use.access == KeyAccess::write) out.insert(use.name);
+    for (const host::KeyUse& use : declared_) {
+      if (use.access == host::KeyAccess::write) out.insert(use.name);
     }
     return out;
   }
   const std::set<std::string>& poisoned() const { return poisoned_; }
 
  private:
-  std::vector<KeyUse> declared_;
+  std::vector<host::KeyUse> declared_;
   std::set<std::string> poisoned_;
 };
 

@@ -1,4 +1,4 @@
-#include "rig.hpp"
+#include "projtour_test/geometry_rig.hpp"
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -102,8 +102,8 @@ void Rig::set_target(std::size_t index) {
 
 std::shared_ptr<Behaviour> Rig::make(const std::string& kind,
                                      const std::map<std::string, ParamValue>& overrides) {
-  const KindInfo& info = registry.require(kind);
-  auto p = std::make_unique<Params>(default_params(info.params));
+  const host::KindInfo& info = registry.require(kind);
+  auto p = std::make_unique<Params>(host::default_params(info.params));
   for (const auto& [name, value] : overrides) p->set(name, value);
   const std::string why = registry.validate_params(kind, *p);
   if (!why.empty()) throw std::invalid_argument(why);
@@ -128,7 +128,7 @@ Outcome Rig::run(Behaviour& b, double dt_s, int max_ticks) {
 }
 
 Eigen::Isometry3d Rig::exact_T_camera_model(const Pose2D& base, const TargetSpec& target) const {
-  const HeadKinematics k(mission.robot);
+  const head::HeadKinematics k(mission.robot);
   const Eigen::Isometry3d T_map_camera =
       isometry_from_pose2d(base) * k.T_base_camera(pan_tilt->measured());
   return T_map_camera.inverse() * target.T_map_model;

@@ -25,7 +25,7 @@ namespace projtour::nav_test {
 // The truth of the simulated world.
 struct World {
   std::shared_ptr<mrpt::maps::COccupancyGridMap2D> map;  // what the laser sees
-  std::unique_ptr<InflatedGrid> bumper;                  // where the base can be
+  std::unique_ptr<navigation::InflatedGrid> bumper;      // where the base can be
   Pose2D truth;
   std::mt19937 random;
   double odometry_noise_frac = 0.03;
@@ -79,7 +79,7 @@ class Rig {
   // The true base pose, from whichever simulator runs.
   Pose2D truth() const;
   Blackboard& blackboard() { return board_; }
-  const PluginRegistry& registry() const { return registry_; }
+  const host::PluginRegistry& registry() const { return registry_; }
   double now_s() const { return clock_.now_s(); }
   const MissionSpec& mission() const { return mission_; }
   const mrpt::maps::COccupancyGridMap2D& map() const { return *map_; }
@@ -102,7 +102,7 @@ class Rig {
 
   // First in, last out: blackboard values a plugin stored keep pointers into its library
   // (std::any's manager), so the libraries outlive everything else.
-  PluginRegistry registry_;
+  host::PluginRegistry registry_;
   std::shared_ptr<mrpt::maps::COccupancyGridMap2D> map_;
   World world_;
   test::RunRig rig_;

@@ -79,7 +79,7 @@ struct Rig {
 
   // First, so it is destroyed last: blackboard values set by a plugin (std::any) keep code of
   // that plugin, which must stay loaded until they are gone.
-  PluginRegistry registry;
+  host::PluginRegistry registry;
   test::RunRig rig;
   const std::filesystem::path& dir = rig.run.run_dir;
   MissionSpec& mission = rig.mission;

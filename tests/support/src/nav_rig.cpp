@@ -1,4 +1,4 @@
-#include "nav_rig.hpp"
+#include "projtour_test/nav_rig.hpp"
 
 #include <mrpt/obs/CObservation2DRangeScan.h>
 
@@ -19,7 +19,7 @@ constexpr double kLaserPeriodS = 0.1;
 }  // namespace
 
 void World::rebuild_bumper() {
-  bumper = std::make_unique<InflatedGrid>(*map, kBumperRadiusM);
+  bumper = std::make_unique<navigation::InflatedGrid>(*map, kBumperRadiusM);
 }
 
 void World::add_box(double x0_m, double y0_m, double x1_m, double y1_m) {
@@ -43,7 +43,7 @@ void SimBase::update(double t_s) {
   odometry_.t_s = t_s;
   if (dt_s <= 0.0) return;
   const Pose2D step{odometry_.v_mps * dt_s, 0.0, odometry_.w_radps * dt_s};
-  const Pose2D next = pose_compose(world_.truth, step);
+  const Pose2D next = navigation::pose_compose(world_.truth, step);
   // The bumper: the base does not move into walls or boxes.
   if (!world_.bumper->fits({next.x_m, next.y_m})) return;
   world_.truth = next;
@@ -53,7 +53,7 @@ void SimBase::update(double t_s) {
                         std::abs(step.x_m) * f * 0.3 * noise(world_.random),
                         step.yaw_rad + (std::abs(step.yaw_rad) + 0.2 * std::abs(step.x_m)) * f *
                                            noise(world_.random)};
-  odometry_.pose = pose_compose(odometry_.pose, measured);
+  odometry_.pose = navigation::pose_compose(odometry_.pose, measured);
 }
 
 void SimLaser::update(double t_s) {
@@ -90,7 +90,7 @@ std::optional<LaserScan> SimLaser::take_scan() {
 
 Rig::Rig(const std::string& map_file, const Pose2D& start, std::uint64_t seed, Drivers drivers,
          const std::function<void(Params&)>& tune_localization)
-    : map_(load_occupancy_grid(map_file)) {
+    : map_(navigation::load_occupancy_grid(map_file)) {
   world_.map = std::make_shared<mrpt::maps::COccupancyGridMap2D>(*map_);
   world_.rebuild_bumper();
   world_.truth = start;
@@ -107,9 +107,9 @@ Rig::Rig(const std::string& map_file, const Pose2D& start, std::uint64_t seed, D
     drivers_.laser = std::make_shared<SimLaser>(world_);
   } else {
     // The simulator needs the whole robot (camera intrinsics, laser spec): the example's.
-    Diagnostics diag;
-    const auto robot = load_robot(PROJTOUR_SOURCE_DIR "/examples/robot/ud.yaml", diag);
-    if (!robot) throw InputError(diag);
+    host::Diagnostics diag;
+    const auto robot = host::load_robot(PROJTOUR_SOURCE_DIR "/examples/robot/ud.yaml", diag);
+    if (!robot) throw host::InputError(diag);
     mission_.robot = *robot;
     registry_.load_library(PROJTOUR_PLUGIN_BUILD_DIR "/libprojtour_sim.so");
     drivers_.base = std::dynamic_pointer_cast<BaseDriver>(
@@ -131,7 +131,7 @@ Rig::~Rig() {
 }
 
 Params Rig::defaults(const std::string& kind) const {
-  return default_params(registry_.require(kind).params);
+  return host::default_params(registry_.require(kind).params);
 }
 
 Context Rig::context(const Params* params, const TargetSpec* target) {
