@@ -256,93 +256,99 @@ struct MonitorServer::Impl {
                  res.set_header("Cache-Control", "no-store");
                  res.set_content(f.png, "image/png");
                });
-    server.Get("/api/stream", [this](const httplib::Request&, httplib::Response& res) {
-      res.set_header("Cache-Control", "no-store");
-      {
-        std::lock_guard<std::mutex> lock(mutex);
-        ++open_streams;
-      }
-      auto sent_version = std::make_shared<std::uint64_t>(~std::uint64_t{0});
-      auto sent_events = std::make_shared<std::size_t>(0);
-      auto last_state = std::make_shared<SteadyClock::time_point>();
-      res.set_chunked_content_provider(
-          "text/event-stream",
-          [this, sent_version, sent_events, last_state](std::size_t, httplib::DataSink& sink) {
-            std::string out;
-            bool ended = false;
-            bool idle = false;
-            {
-              std::unique_lock<std::mutex> lock(mutex);
-              idle = !changed.wait_for(lock, std::chrono::seconds(1), [&] {
-                return stopping || closed || snapshot_version != *sent_version ||
-                       events_next() != *sent_events;
-              });
-              if (stopping) return false;
-              const auto now = SteadyClock::now();
-              // The last state of a run that is over goes out at once, whatever the rate.
-              if (snapshot_version != *sent_version &&
-                  (closed || now - *last_state >= kStatePeriod)) {
-                out += "event: state\ndata: " + dump_json(state_json()) + "\n\n";
-                *sent_version = snapshot_version;
-                *last_state = now;
-              }
-              if (events_next() != *sent_events) {
-                out += "event: events\ndata: " + dump_json(events_json(*sent_events)) + "\n\n";
-                *sent_events = events_next();
-              }
-              ended = closed && snapshot_version == *sent_version;
-              if (ended) out += "event: end\ndata: {}\n\n";
+    server.Get("/api/stream",
+               [this](const httplib::Request&, httplib::Response& res) { stream(res); });
+    server.Post(R"(/api/control/([a-z]+))",
+                [this](const httplib::Request& req, httplib::Response& res) { control(req, res); });
+  }
+
+  // Server-sent events: the state at most every kStatePeriod, the new events, and an end.
+  void stream(httplib::Response& res) {
+    res.set_header("Cache-Control", "no-store");
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      ++open_streams;
+    }
+    auto sent_version = std::make_shared<std::uint64_t>(~std::uint64_t{0});
+    auto sent_events = std::make_shared<std::size_t>(0);
+    auto last_state = std::make_shared<SteadyClock::time_point>();
+    res.set_chunked_content_provider(
+        "text/event-stream",
+        [this, sent_version, sent_events, last_state](std::size_t, httplib::DataSink& sink) {
+          std::string out;
+          bool ended = false;
+          bool idle = false;
+          {
+            std::unique_lock<std::mutex> lock(mutex);
+            idle = !changed.wait_for(lock, std::chrono::seconds(1), [&] {
+              return stopping || closed || snapshot_version != *sent_version ||
+                     events_next() != *sent_events;
+            });
+            if (stopping) return false;
+            const auto now = SteadyClock::now();
+            // The last state of a run that is over goes out at once, whatever the rate.
+            if (snapshot_version != *sent_version &&
+                (closed || now - *last_state >= kStatePeriod)) {
+              out += "event: state\ndata: " + dump_json(state_json()) + "\n\n";
+              *sent_version = snapshot_version;
+              *last_state = now;
             }
-            // A comment keeps the connection's liveness known while nothing changes.
-            if (out.empty() && idle) out = ": idle\n\n";
-            // A browser that stopped reading fails the write (after the write timeout, on this
-            // thread only): the stream ends, the tour never notices.
-            if (!out.empty() && !sink.write(out.data(), out.size())) return false;
-            if (ended) {
-              sink.done();
-              return false;
+            if (events_next() != *sent_events) {
+              out += "event: events\ndata: " + dump_json(events_json(*sent_events)) + "\n\n";
+              *sent_events = events_next();
             }
-            // At most ten writes a second however fast the tour runs: batches, not a spin.
-            if (!idle) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-            return true;
-          },
-          [this](bool) {
-            std::lock_guard<std::mutex> lock(mutex);
-            --open_streams;
-            changed.notify_all();
-          });
-    });
-    server.Post(R"(/api/control/([a-z]+))", [this](const httplib::Request& req,
-                                                   httplib::Response& res) {
-      if (!authorised(req)) {
-        return json_reply(
-            res, 401, {{"error", "control needs the run's token: Authorization: Bearer TOKEN"}});
-      }
-      if (!controls.take()) return json_reply(res, 429, {{"error", "too many control requests"}});
-      const std::string request = req.matches[1].str();
-      static const char* const kKnown[] = {"pause", "resume", "cancel", "skip", "retry"};
-      if (std::find(std::begin(kKnown), std::end(kKnown), request) == std::end(kKnown)) {
-        return json_reply(res, 404, {{"error", "no control \"" + request + "\""}});
-      }
-      auto pending_control = std::make_shared<PendingControl>();
-      pending_control->control.request = request;
-      pending_control->control.target =
-          req.has_param("target") ? req.get_param_value("target") : "";
-      if (request == "retry" && pending_control->control.target.empty()) {
-        return json_reply(res, 400, {{"error", "retry needs ?target=ID"}});
-      }
-      std::future<MonitorReply> reply = pending_control->reply.get_future();
-      {
-        std::lock_guard<std::mutex> lock(mutex);
-        if (closed) return json_reply(res, 409, {{"error", "the run is over"}});
-        pending.push_back(pending_control);
-      }
-      if (reply.wait_for(kControlWait) != std::future_status::ready) {
-        return json_reply(res, 503, {{"error", "the tour did not take the request in time"}});
-      }
-      const MonitorReply r = reply.get();
-      json_reply(res, 200, {{"accepted", r.accepted}, {"message", r.message}});
-    });
+            ended = closed && snapshot_version == *sent_version;
+            if (ended) out += "event: end\ndata: {}\n\n";
+          }
+          // A comment keeps the connection's liveness known while nothing changes.
+          if (out.empty() && idle) out = ": idle\n\n";
+          // A browser that stopped reading fails the write (after the write timeout, on this
+          // thread only): the stream ends, the tour never notices.
+          if (!out.empty() && !sink.write(out.data(), out.size())) return false;
+          if (ended) {
+            sink.done();
+            return false;
+          }
+          // At most ten writes a second however fast the tour runs: batches, not a spin.
+          if (!idle) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+          return true;
+        },
+        [this](bool) {
+          std::lock_guard<std::mutex> lock(mutex);
+          --open_streams;
+          changed.notify_all();
+        });
+  }
+
+  // A control request, handed to the tour's thread and answered with its reply.
+  void control(const httplib::Request& req, httplib::Response& res) {
+    if (!authorised(req)) {
+      return json_reply(res, 401,
+                        {{"error", "control needs the run's token: Authorization: Bearer TOKEN"}});
+    }
+    if (!controls.take()) return json_reply(res, 429, {{"error", "too many control requests"}});
+    const std::string request = req.matches[1].str();
+    static const char* const kKnown[] = {"pause", "resume", "cancel", "skip", "retry"};
+    if (std::find(std::begin(kKnown), std::end(kKnown), request) == std::end(kKnown)) {
+      return json_reply(res, 404, {{"error", "no control \"" + request + "\""}});
+    }
+    auto pending_control = std::make_shared<PendingControl>();
+    pending_control->control.request = request;
+    pending_control->control.target = req.has_param("target") ? req.get_param_value("target") : "";
+    if (request == "retry" && pending_control->control.target.empty()) {
+      return json_reply(res, 400, {{"error", "retry needs ?target=ID"}});
+    }
+    std::future<MonitorReply> reply = pending_control->reply.get_future();
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (closed) return json_reply(res, 409, {{"error", "the run is over"}});
+      pending.push_back(pending_control);
+    }
+    if (reply.wait_for(kControlWait) != std::future_status::ready) {
+      return json_reply(res, 503, {{"error", "the tour did not take the request in time"}});
+    }
+    const MonitorReply r = reply.get();
+    json_reply(res, 200, {{"accepted", r.accepted}, {"message", r.message}});
   }
 
   void render_map() {
