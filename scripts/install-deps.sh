@@ -9,6 +9,7 @@ packages=(
   libeigen3-dev libyaml-cpp-dev libopencv-dev libopencv-contrib-dev libpcl-dev libopenni2-dev
   libmrpt-poses-dev libmrpt-maps-dev libmrpt-slam-dev libmrpt-obs-dev
   libmrpt-config-dev libmrpt-kinematics-dev libmrpt-hwdrivers-dev mrpt-common
+  libcgal-demo
   chromium
 )
 missing=()
