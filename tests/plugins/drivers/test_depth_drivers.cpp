@@ -13,6 +13,7 @@
 #include "projtour/host/params_reader.hpp"
 #include "projtour/host/plugin_loader.hpp"
 #include "projtour/perception/registration.hpp"
+#include "projtour_test/loaded_plugins.hpp"
 #include "projtour_test/rendered_scenes.hpp"
 #include "projtour_test/run_rig.hpp"
 
@@ -23,21 +24,11 @@ namespace fs = std::filesystem;
 
 // One registry for the whole suite: plugins stay loaded, as in a run.
 host::PluginRegistry& registry() {
-  static host::PluginRegistry* r = [] {
-    auto* reg = new host::PluginRegistry;
-    for (const char* name : {"openni2", "mrpt_sensor"}) {
-      reg->load_library(fs::path(PROJTOUR_PLUGIN_BUILD_DIR) /
-                        ("libprojtour_" + std::string(name) + ".so"));
-    }
-    return reg;
-  }();
-  return *r;
+  return test::loaded_plugins({"openni2", "mrpt_sensor"});
 }
 
 Params params_of(const std::string& kind, const std::map<std::string, ParamValue>& values = {}) {
-  Params p = host::default_params(registry().require(kind).params);
-  for (const auto& [name, value] : values) p.set(name, value);
-  return p;
+  return test::params_with(registry(), kind, values);
 }
 
 // The real OpenNI2 path, on OpenNI2's Dummy device (320x240 depth, no hardware).

@@ -18,6 +18,7 @@
 #include "projtour/host/params_reader.hpp"
 #include "projtour/host/plugin_loader.hpp"
 #include "projtour/perception/registration.hpp"
+#include "projtour_test/loaded_plugins.hpp"
 #include "projtour_test/rendered_scenes.hpp"
 #include "projtour_test/run_rig.hpp"
 
@@ -53,21 +54,11 @@ const char* const kBunny = PROJTOUR_SOURCE_DIR "/examples/models/bunny.ply";
 
 // One registry for the whole suite: plugins stay loaded, as in a run.
 host::PluginRegistry& registry() {
-  static host::PluginRegistry* r = [] {
-    auto* reg = new host::PluginRegistry;
-    for (const char* name : {"capture", "align"}) {
-      reg->load_library(fs::path(PROJTOUR_PLUGIN_BUILD_DIR) /
-                        ("libprojtour_" + std::string(name) + ".so"));
-    }
-    return reg;
-  }();
-  return *r;
+  return test::loaded_plugins({"capture", "align"});
 }
 
 Params params_of(const std::string& kind, const std::map<std::string, ParamValue>& values = {}) {
-  Params p = host::default_params(registry().require(kind).params);
-  for (const auto& [name, value] : values) p.set(name, value);
-  return p;
+  return test::params_with(registry(), kind, values);
 }
 
 // A robot at the map origin with its camera 1 m up on the pan link, looking along +x, and a
