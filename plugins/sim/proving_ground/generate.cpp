@@ -3,6 +3,8 @@
 // batch seed and the case's index, so a case is the same whatever else the batch holds.
 #include <mrpt/maps/COccupancyGridMap2D.h>
 
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -47,12 +49,18 @@ std::string num(double v, int decimals) {
                                                                                 : out;
 }
 
-struct PreparedMesh {
-  const MeshSource* source = nullptr;
+// One way a mesh may face the front (+x): a scan turned about z, so that every side of it may
+// carry the content; the shipped meshes face as they were made.
+struct MeshVariant {
   fs::path file;  // as the mission names it
   perception::TriangleMesh mesh;
   MeshBounds bounds;
-  double footprint_radius_m = 0.0;
+};
+
+struct PreparedMesh {
+  const MeshSource* source = nullptr;
+  std::vector<MeshVariant> variants;
+  double footprint_radius_m = 0.0;  // the same for every variant
 };
 
 struct PreparedMap {
@@ -64,6 +72,7 @@ struct PreparedMap {
 struct PlacedTarget {
   std::string id;
   const PreparedMesh* mesh = nullptr;
+  const MeshVariant* variant = nullptr;
   Eigen::Vector2d at_m = Eigen::Vector2d::Zero();
   double yaw_rad = 0.0;
   double z_m = 0.0;
@@ -75,6 +84,14 @@ struct PlacedTarget {
   double offset_m = 0.0, offset_deg = 0.0, offset_dir_rad = 0.0, offset_sign = 1.0;
 };
 
+perception::TriangleMesh turned(perception::TriangleMesh mesh, int yaw_deg) {
+  const Eigen::Matrix3f R =
+      Eigen::AngleAxisf(static_cast<float>(deg_to_rad(yaw_deg)), Eigen::Vector3f::UnitZ())
+          .toRotationMatrix();
+  for (auto& v : mesh.vertices) v = R * v;
+  return mesh;
+}
+
 std::vector<PreparedMesh> prepare_meshes(const std::vector<MeshSource>& sources,
                                          const fs::path& mesh_out_dir, std::uint64_t seed) {
   std::vector<PreparedMesh> out;
@@ -83,20 +100,25 @@ std::vector<PreparedMesh> prepare_meshes(const std::vector<MeshSource>& sources,
     PreparedMesh m;
     m.source = &s;
     const double size_m = uniform(rng, kMinSizeM, kMaxSizeM);
-    // A shipped mesh is used as it is (the Model Points are in its own frame); a scan is
-    // centred and scaled, and the missions name the copy written here.
-    m.mesh = s.scale_to_size ? centred(perception::load_mesh(s.file), size_m)
-                             : perception::load_mesh(s.file);
-    if (s.scale_to_size) {
-      fs::create_directories(mesh_out_dir);
-      m.file = mesh_out_dir / (s.name + ".off");
-      write_off(m.mesh, m.file);
-      m.file = fs::path("..") / "meshes" / (s.name + ".off");
+    if (!s.scale_to_size) {
+      // A shipped mesh is used as it is: its front is the one it was made with.
+      MeshVariant v{s.file, perception::load_mesh(s.file), {}};
+      v.bounds = bounds_of(v.mesh);
+      m.variants.push_back(std::move(v));
     } else {
-      m.file = s.file;
+      // A scan is centred and scaled, and the missions name the copies written here.
+      const perception::TriangleMesh base = centred(perception::load_mesh(s.file), size_m);
+      fs::create_directories(mesh_out_dir);
+      for (const int yaw_deg : {0, 90, 180, 270}) {
+        const std::string name =
+            s.name + (yaw_deg ? "-yaw" + std::to_string(yaw_deg) : "") + ".off";
+        MeshVariant v{fs::path("..") / "meshes" / name, turned(base, yaw_deg), {}};
+        write_off(v.mesh, mesh_out_dir / name);
+        v.bounds = bounds_of(v.mesh);
+        m.variants.push_back(std::move(v));
+      }
     }
-    m.bounds = bounds_of(m.mesh);
-    for (const auto& v : m.mesh.vertices) {
+    for (const auto& v : m.variants.front().mesh.vertices) {
       m.footprint_radius_m =
           std::max(m.footprint_radius_m, std::hypot(double(v.x()), double(v.y())));
     }
@@ -183,18 +205,29 @@ std::optional<PlacedTarget> place_target(const PreparedMap& map,
 
 const char* const kContents[] = {"sign.png", "sale.png", "pillar.png", "lunch.png"};
 
-// The content area, the height and the true offset of a target placed on the map.
+// The content area (on the first of the mesh's variants, in a drawn order, whose front has room
+// for one), the height and the true offset of a target placed on the map.
 bool dress_target(PlacedTarget& t, std::mt19937_64& rng) {
   const PreparedMesh& m = *t.mesh;
-  const FrontSurface surface(m.mesh);
-  const double smaller =
-      std::min(m.bounds.max.y() - m.bounds.min.y(), m.bounds.max.z() - m.bounds.min.z());
-  t.content_side_m = uniform(rng, 0.25, 0.6) * smaller;
-  const auto area = draw_content_area(surface, t.content_side_m, rng);
-  if (!area) return false;
-  t.model_points = *area;
+  std::vector<const MeshVariant*> order;
+  for (const MeshVariant& v : m.variants) order.push_back(&v);
+  std::shuffle(order.begin(), order.end(), rng);
+  const double side_fraction = uniform(rng, 0.25, 0.6);
+  for (const MeshVariant* v : order) {
+    const FrontSurface surface(v->mesh);
+    const double smaller =
+        std::min(v->bounds.max.y() - v->bounds.min.y(), v->bounds.max.z() - v->bounds.min.z());
+    t.content_side_m = side_fraction * smaller;
+    if (const auto area = draw_content_area(surface, t.content_side_m, rng)) {
+      t.model_points = *area;
+      t.variant = v;
+      break;
+    }
+  }
+  if (t.variant == nullptr) return false;
   const double base_m = uniform(rng, kMinBaseM, kMaxBaseM);
-  t.z_m = m.source->origin_height_m ? *m.source->origin_height_m : base_m - m.bounds.min.z();
+  t.z_m =
+      m.source->origin_height_m ? *m.source->origin_height_m : base_m - t.variant->bounds.min.z();
   t.content = kContents[std::uniform_int_distribution<int>(0, 3)(rng)];
   t.offset_m = uniform(rng, 0.0, kMaxOffsetM);
   t.offset_dir_rad = uniform(rng, -kPi, kPi);
@@ -221,7 +254,7 @@ std::string mission_yaml(const std::string& name, const PreparedMap& map,
     << "order: mission\n\ntargets:\n";
   for (const PlacedTarget& t : targets) {
     y << "  - id: " << t.id << "\n"
-      << "    model: " << t.mesh->file.string() << "\n"
+      << "    model: " << t.variant->file.string() << "\n"
       << "    pose: " << pose_yaml(t.at_m.x(), t.at_m.y(), t.z_m, rad_to_deg(t.yaw_rad)) << "\n"
       << "    model_points: [";
     for (std::size_t k = 0; k < 4; ++k) {
@@ -333,14 +366,19 @@ std::vector<GroundCase> generate_ground(const GroundOptions& options,
     const auto reachable = map.planner->reachable_from(*start);
     std::vector<PlacedTarget> targets;
     for (int k = 0; k < options.targets_per_mission; ++k) {
-      for (int attempt = 0; attempt < 20; ++attempt) {
+      // The mesh is drawn first and kept through the placement's attempts, so that a mesh that
+      // is hard to place is not quietly drawn less often; another is drawn only if it never fits.
+      bool placed = false;
+      for (int mesh_draw = 0; mesh_draw < 5 && !placed; ++mesh_draw) {
         const PreparedMesh& mesh =
             *allowed[std::uniform_int_distribution<std::size_t>(0, allowed.size() - 1)(rng)];
-        auto t = place_target(map, reachable, mesh, *start, targets, rng);
-        if (!t || !dress_target(*t, rng)) continue;
-        t->id = "t" + std::to_string(k + 1) + "-" + mesh.source->name;
-        targets.push_back(std::move(*t));
-        break;
+        for (int attempt = 0; attempt < 20 && !placed; ++attempt) {
+          auto t = place_target(map, reachable, mesh, *start, targets, rng);
+          if (!t || !dress_target(*t, rng)) continue;
+          t->id = "t" + std::to_string(k + 1) + "-" + mesh.source->name;
+          targets.push_back(std::move(*t));
+          placed = true;
+        }
       }
     }
     if (targets.empty()) throw std::runtime_error(out.name + ": no target could be placed");

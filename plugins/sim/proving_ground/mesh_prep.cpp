@@ -46,13 +46,37 @@ MeshBounds bounds_of(const perception::TriangleMesh& mesh) {
 }
 
 FrontSurface::FrontSurface(const perception::TriangleMesh& mesh)
-    : mesh_(mesh), bounds_(bounds_of(mesh)) {}
+    : mesh_(mesh), bounds_(bounds_of(mesh)), bins_(kBins * kBins) {
+  for (std::size_t i = 0; i < mesh_.triangles.size(); ++i) {
+    const auto& t = mesh_.triangles[i];
+    double y0 = mesh_.vertices[t[0]].y(), y1 = y0, z0 = mesh_.vertices[t[0]].z(), z1 = z0;
+    for (int k = 1; k < 3; ++k) {
+      y0 = std::min<double>(y0, mesh_.vertices[t[k]].y());
+      y1 = std::max<double>(y1, mesh_.vertices[t[k]].y());
+      z0 = std::min<double>(z0, mesh_.vertices[t[k]].z());
+      z1 = std::max<double>(z1, mesh_.vertices[t[k]].z());
+    }
+    const int by0 = bin_of(y0, bounds_.min.y(), bounds_.max.y());
+    const int by1 = bin_of(y1, bounds_.min.y(), bounds_.max.y());
+    const int bz0 = bin_of(z0, bounds_.min.z(), bounds_.max.z());
+    const int bz1 = bin_of(z1, bounds_.min.z(), bounds_.max.z());
+    for (int by = by0; by <= by1; ++by) {
+      for (int bz = bz0; bz <= bz1; ++bz) bins_[by * kBins + bz].push_back(static_cast<int>(i));
+    }
+  }
+}
 
-// Brute force over the triangles: a few hundred rays per mesh, each a pass over at most ~50k
-// triangles, is well under a second, and the generator runs once per batch.
+int FrontSurface::bin_of(double v, double lo, double hi) const {
+  if (!(hi > lo)) return 0;
+  return std::clamp(static_cast<int>((v - lo) / (hi - lo) * kBins), 0, kBins - 1);
+}
+
 std::optional<FrontHit> FrontSurface::hit(double y_m, double z_m) const {
   std::optional<FrontHit> best;
-  for (const auto& t : mesh_.triangles) {
+  const int by = bin_of(y_m, bounds_.min.y(), bounds_.max.y());
+  const int bz = bin_of(z_m, bounds_.min.z(), bounds_.max.z());
+  for (const int i : bins_[by * kBins + bz]) {
+    const auto& t = mesh_.triangles[static_cast<std::size_t>(i)];
     const Eigen::Vector3d a = mesh_.vertices[t[0]].cast<double>();
     const Eigen::Vector3d b = mesh_.vertices[t[1]].cast<double>();
     const Eigen::Vector3d c = mesh_.vertices[t[2]].cast<double>();

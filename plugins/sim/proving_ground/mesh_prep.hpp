@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <optional>
 #include <random>
+#include <vector>
 
 #include "projtour/perception/model.hpp"
 
@@ -29,6 +30,8 @@ struct FrontHit {
   double normal_x = 0.0;  // |n.x| of the triangle hit: 1 faces the viewer, 0 is edge-on
 };
 
+// Triangles are binned by their extent in y-z (a 64 x 64 grid over the mesh's bounds), so a ray
+// looks only at the triangles of its bin.
 class FrontSurface {
  public:
   explicit FrontSurface(const perception::TriangleMesh& mesh);
@@ -36,8 +39,11 @@ class FrontSurface {
   const MeshBounds& bounds() const { return bounds_; }
 
  private:
+  static constexpr int kBins = 64;
+  int bin_of(double v, double lo, double hi) const;
   const perception::TriangleMesh& mesh_;
   MeshBounds bounds_;
+  std::vector<std::vector<int>> bins_;  // kBins * kBins lists of triangle indices
 };
 
 // A square content area of side `side_m` (top-left, top-right, bottom-right, bottom-left as seen

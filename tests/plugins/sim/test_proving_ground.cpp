@@ -53,7 +53,8 @@ TEST(ProvingGround, SameSeedSameFilesByteForByte) {
   write_ground(options(7, 6), a.path() / "g");
   write_ground(options(7, 6), b.path() / "g");
   const auto first = files_under(a.path() / "g"), second = files_under(b.path() / "g");
-  EXPECT_EQ(first.size(), 6u * 2u + 1u + 10u);  // mission and world per case, visits.csv, meshes
+  // A mission and a world per case, visits.csv, and four turns of each of the ten scans.
+  EXPECT_EQ(first.size(), 6u * 2u + 1u + 40u);
   EXPECT_EQ(first, second);
   test::TempDir c;
   write_ground(options(8, 6), c.path() / "g");
