@@ -14,6 +14,7 @@
 #include <iomanip>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -74,6 +75,26 @@ pid_t spawn_case(const fs::path& dir, const fs::path& projtour, const std::strin
   return pid;
 }
 
+// The targets a run's navigate reached (an outcome "succeeded" of a state .../navigate), from its
+// events.jsonl.
+std::set<std::string> arrived_targets(const fs::path& run_dir) {
+  std::set<std::string> arrived;
+  std::ifstream in(run_dir / "events.jsonl");
+  std::string line;
+  const std::string tail = "/navigate";
+  while (std::getline(in, line)) {
+    const auto e = nlohmann::json::parse(line, nullptr, false);
+    if (!e.is_object() || e.value("event", "") != "outcome" || !e["target"].is_string()) continue;
+    const std::string state = e.value("state", "");
+    if (state.size() >= tail.size() &&
+        state.compare(state.size() - tail.size(), tail.size(), tail) == 0 &&
+        e.value("outcome", "") == "succeeded") {
+      arrived.insert(e["target"].get<std::string>());
+    }
+  }
+  return arrived;
+}
+
 }  // namespace
 
 int run_cases(const fs::path& ground, const fs::path& projtour, int jobs, std::ostream& log) {
@@ -125,6 +146,7 @@ GroundResults read_results(const fs::path& ground) {
   const std::size_t mission_col = column("mission"), target_col = column("target"),
                     tolerance_col = column("tolerance_mm");
   std::map<std::string, nlohmann::json> reports;
+  std::map<std::string, std::set<std::string>> arrivals;
   while (std::getline(in, line)) {
     VisitResult v;
     v.factors = split_csv(line);
@@ -135,6 +157,7 @@ GroundResults read_results(const fs::path& ground) {
       std::ifstream report(ground / mission / "run" / "report.json");
       reports[mission] = report ? nlohmann::json::parse(report, nullptr, false) : nlohmann::json();
     }
+    if (arrivals.count(mission) == 0) arrivals[mission] = arrived_targets(ground / mission / "run");
     const nlohmann::json& report = reports[mission];
     if (report.is_object() && report.contains("targets")) {
       for (const auto& t : report["targets"]) {
@@ -148,10 +171,8 @@ GroundResults read_results(const fs::path& ground) {
         }
       }
     }
-    // Navigation's skips say so first ("navigate: ...", "relocalize: ..."); a visit the robot
-    // never reached says nothing of the verdict.
-    v.reachable =
-        v.ran && v.reason.rfind("navigate", 0) != 0 && v.reason.rfind("relocalize", 0) != 0;
+    // A visit the robot never reached (no navigate that succeeded) says nothing of the verdict.
+    v.reachable = v.ran && arrivals[mission].count(v.factors[target_col]) > 0;
     results.visits.push_back(std::move(v));
   }
   return results;

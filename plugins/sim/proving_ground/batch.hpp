@@ -20,7 +20,7 @@ struct VisitResult {
   bool ran = false;                  // the case's report exists and lists the target
   std::string outcome;               // "projected", "skipped", ...
   std::string reason;
-  bool reachable = false;             // the robot reached the stand-off (not skipped by navigation)
+  bool reachable = false;             // navigate reached the stand-off (the run's events say so)
   std::optional<double> observed_mm;  // the robot's figure
   std::optional<double> true_mm;      // the referee's, at the Model Points
   double tolerance_mm = 0.0;

@@ -123,7 +123,7 @@ TEST(ProvingGround, FalseSuccessBoundIsClopperPearson) {
 }
 
 // A visit is a false success when projected with the referee's error over its tolerance; a visit
-// navigation skipped is not reachable and counts against no yield.
+// whose navigate never succeeded (the run's events) is not reachable: it counts against no yield.
 TEST(ProvingGround, ResultsReadFromTheReports) {
   test::TempDir dir;
   const fs::path g = dir.path();
@@ -135,7 +135,17 @@ TEST(ProvingGround, ResultsReadFromTheReports) {
        "projection_error_mm": {"before_align": 30.0, "after_align": 3.3}},
       {"id": "b", "outcome": "projected", "observed_error_mm": 1.0,
        "projection_error_mm": {"before_align": 30.0, "after_align": 1.2}},
-      {"id": "c", "outcome": "skipped", "reason": "navigate: unreachable: no path"}]})";
+      {"id": "c", "outcome": "skipped", "reason": "blocked: someone in the way"}]})";
+  std::ofstream(g / "case-0000" / "run" / "events.jsonl")
+      << R"({"t": 1, "event": "outcome", "state": "tour/visit/navigate", "target": "a", )"
+         R"("outcome": "succeeded"})"
+         "\n"
+      << R"({"t": 2, "event": "outcome", "state": "tour/visit/navigate", "target": "b", )"
+         R"("outcome": "succeeded"})"
+         "\n"
+      << R"({"t": 3, "event": "outcome", "state": "tour/visit/navigate", "target": "c", )"
+         R"("outcome": "blocked"})"
+         "\n";
   const GroundResults r = read_results(g);
   ASSERT_EQ(r.visits.size(), 3u);
   EXPECT_TRUE(r.visits[0].false_success());
