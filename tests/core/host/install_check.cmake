@@ -6,9 +6,9 @@ option(PROJTOUR_INSTALL_TEST_CLI
   "The install test also runs the installed `projtour plugins` (needs that subcommand)" ON)
 
 # Not a discovered test: it only makes sense after the install step, which passes it the prefix.
-add_executable(test_template_plugin test_template_plugin.cpp fixture_support.cpp)
+add_executable(test_template_plugin test_template_plugin.cpp)
 target_link_libraries(test_template_plugin PRIVATE projtour_contract projtour_host
-  projtour_test_support GTest::gtest GTest::gtest_main)
+  projtour_test_support projtour_fixture_support GTest::gtest GTest::gtest_main)
 target_compile_definitions(test_template_plugin PRIVATE ${fixture_definitions})
 projtour_target_options(test_template_plugin)
 

@@ -4,7 +4,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "loader_fixture.hpp"
+#include "projtour_test/loader_fixture.hpp"
 #include "projtour/host/mission_loader.hpp"
 
 namespace projtour::test {

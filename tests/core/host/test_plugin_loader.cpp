@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "fixture_support.hpp"
+#include "projtour_test/fixture_support.hpp"
 #include "projtour/host/params_reader.hpp"
 #include "projtour/host/plugin_loader.hpp"
 #include "projtour_test/scoped_state.hpp"

@@ -1,7 +1,7 @@
 // Mission parameters read against a kind's schema as the plugin declared it.
 #include <gtest/gtest.h>
 
-#include "fixture_support.hpp"
+#include "projtour_test/fixture_support.hpp"
 #include "projtour/host/params_reader.hpp"
 #include "projtour/host/plugin_loader.hpp"
 

@@ -4,7 +4,7 @@
 #include <cstdlib>
 #include <fstream>
 
-#include "loader_fixture.hpp"
+#include "projtour_test/loader_fixture.hpp"
 #include "projtour/contract/geometry.hpp"
 #include "projtour/host/mission_loader.hpp"
 

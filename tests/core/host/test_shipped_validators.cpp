@@ -5,7 +5,7 @@
 
 #include <ostream>
 
-#include "fixture_support.hpp"
+#include "projtour_test/fixture_support.hpp"
 #include "projtour/host/plugin_loader.hpp"
 
 namespace {

@@ -1,7 +1,7 @@
 // World files of a dry run: values, defaults, the checks against the mission, and diagnostics.
 #include <sstream>
 #include <stdexcept>
-#include "loader_fixture.hpp"
+#include "projtour_test/loader_fixture.hpp"
 
 #include "projtour/host/mission_loader.hpp"
 #include "projtour/host/world_faults.hpp"

@@ -7,7 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
-#include "loader_fixture.hpp"
+#include "projtour_test/loader_fixture.hpp"
 #include "projtour/host/mission_loader.hpp"
 #include "projtour/tour/run_checks.hpp"
 #include "projtour/tour/runner.hpp"

@@ -1,4 +1,4 @@
-#include "loader_fixture.hpp"
+#include "projtour_test/loader_fixture.hpp"
 
 #include <stdlib.h>
 

@@ -1,4 +1,4 @@
-#include "fixture_support.hpp"
+#include "projtour_test/fixture_support.hpp"
 
 #include "projtour/host/params_reader.hpp"
 #include "projtour/host/yaml_reader.hpp"

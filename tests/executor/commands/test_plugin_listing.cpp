@@ -4,7 +4,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "fixture_support.hpp"
+#include "projtour_test/fixture_support.hpp"
 #include "projtour/commands/plugin_listing.hpp"
 
 namespace fs = std::filesystem;
