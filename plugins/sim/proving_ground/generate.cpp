@@ -336,7 +336,8 @@ std::vector<MapSource> default_maps(const GroundOptions& options) {
   const fs::path maps = options.source_dir / "maps";
   return {{"campus", maps / "malaga_campus.yaml"},
           {"thick_walls", maps / "graphslam_basic_thick.yaml"},
-          {"thin_walls", maps / "graphslam_basic_thin.yaml"}};
+          {"thin_walls", maps / "graphslam_basic_thin.yaml"},
+          {"office", maps / "office.yaml"}};
 }
 
 std::vector<GroundCase> generate_ground(const GroundOptions& options,

@@ -88,7 +88,7 @@ TEST(ProvingGround, EveryMissionLoadsFitsItsMapAndItsWorldNamesItsTargets) {
       EXPECT_LE(Eigen::AngleAxisd(d.rotation()).angle(), 20.0 * M_PI / 180.0 + 1e-3) << t.id;
     }
   }
-  EXPECT_EQ(maps.size(), 3u);
+  EXPECT_EQ(maps.size(), 4u);
   EXPECT_GE(meshes.size(), 6u);
 }
 
