@@ -319,8 +319,8 @@ std::vector<MeshSource> default_meshes(const GroundOptions& options) {
                                     {"pillar", shipped / "pillar.ply", false, false, 0.75},
                                     {"bunny", shipped / "bunny.ply", false, false, 0.9}};
   if (options.scanned_mesh_dir.empty()) return meshes;
-  // Real scans from CGAL's data set (Debian's libcgal-dev data.tar.gz): six to tune on, and a
-  // third of all twelve kept out of any tuning.
+  // Real scans from CGAL's data set (Debian's libcgal-demo, data.tar.gz): six to tune on, and
+  // four of all thirteen meshes (about a third) kept out of any tuning.
   for (const char* name : {"cow", "bull", "camel", "elephant", "homer", "bear"}) {
     meshes.push_back(
         {name, options.scanned_mesh_dir / (std::string(name) + ".off"), false, true, {}});
