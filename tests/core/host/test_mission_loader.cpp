@@ -4,8 +4,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "projtour_test/loader_fixture.hpp"
 #include "projtour/host/mission_loader.hpp"
+#include "projtour_test/loader_fixture.hpp"
 
 namespace projtour::test {
 namespace {

@@ -1,7 +1,7 @@
 // The mission's all-day fields: schedule (rounds, until, start, pause_s), and each target's
 // hours windows and content list with its rotation; every bad value at its line and column.
-#include "projtour_test/loader_fixture.hpp"
 #include "projtour/host/mission_loader.hpp"
+#include "projtour_test/loader_fixture.hpp"
 
 namespace projtour::test {
 namespace {

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "projtour_test/fixture_support.hpp"
 #include "projtour/host/params_reader.hpp"
 #include "projtour/host/plugin_loader.hpp"
+#include "projtour_test/fixture_support.hpp"
 #include "projtour_test/scoped_state.hpp"
 
 namespace fs = std::filesystem;

@@ -1,9 +1,9 @@
 // Mission parameters read against a kind's schema as the plugin declared it.
 #include <gtest/gtest.h>
 
-#include "projtour_test/fixture_support.hpp"
 #include "projtour/host/params_reader.hpp"
 #include "projtour/host/plugin_loader.hpp"
+#include "projtour_test/fixture_support.hpp"
 
 namespace {
 

@@ -4,9 +4,9 @@
 #include <cstdlib>
 #include <fstream>
 
-#include "projtour_test/loader_fixture.hpp"
 #include "projtour/contract/geometry.hpp"
 #include "projtour/host/mission_loader.hpp"
+#include "projtour_test/loader_fixture.hpp"
 
 namespace projtour::test {
 namespace {

@@ -5,8 +5,8 @@
 
 #include <ostream>
 
-#include "projtour_test/fixture_support.hpp"
 #include "projtour/host/plugin_loader.hpp"
+#include "projtour_test/fixture_support.hpp"
 
 namespace {
 

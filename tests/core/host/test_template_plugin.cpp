@@ -5,8 +5,8 @@
 
 #include <cstdlib>
 
-#include "projtour_test/fixture_support.hpp"
 #include "projtour/host/plugin_loader.hpp"
+#include "projtour_test/fixture_support.hpp"
 
 namespace fs = std::filesystem;
 
