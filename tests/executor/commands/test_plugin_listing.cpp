@@ -4,8 +4,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "projtour_test/fixture_support.hpp"
 #include "projtour/commands/plugin_listing.hpp"
+#include "projtour_test/fixture_support.hpp"
 
 namespace fs = std::filesystem;
 using projtour::testing::fixture;

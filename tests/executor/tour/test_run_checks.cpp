@@ -7,10 +7,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
-#include "projtour_test/loader_fixture.hpp"
 #include "projtour/host/mission_loader.hpp"
 #include "projtour/tour/run_checks.hpp"
 #include "projtour/tour/runner.hpp"
+#include "projtour_test/loader_fixture.hpp"
 
 namespace projtour::test {
 namespace {
